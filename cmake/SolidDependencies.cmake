@@ -1,0 +1,16 @@
+# Every dependency is a Debian 12 package (scripts/install-deps.sh installs them).
+# Used both by our own build and by consumers of the installed package, so it
+# must only find things, never define targets of ours.
+include(CMakeFindDependencyMacro)
+find_package(PkgConfig REQUIRED)
+find_package(SQLite3 3.40 REQUIRED)
+find_package(nlohmann_json 3.11 REQUIRED)
+# OpenImageIO via pkg-config: Debian 12's CMake config names files from other packages
+# (/usr/bin/iconvert, /usr/include/opencv4) and fails without them.
+if(NOT TARGET PkgConfig::OIIO)
+  pkg_check_modules(OIIO REQUIRED IMPORTED_TARGET OpenImageIO>=2.4)
+endif()
+find_package(fmt 9 REQUIRED)
+if(NOT TARGET PkgConfig::XXHASH)
+  pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash>=0.8)
+endif()
