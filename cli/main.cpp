@@ -1,8 +1,35 @@
-#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <clocale>
+#include <map>
+
+#include "commands.h"
+#include "exit_codes.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"solid: label-free synthetic pretraining data for object detectors"};
+  // Numbers in every file we read and write use the C locale, whatever the user's is.
+  std::setlocale(LC_ALL, "C");
+  CLI::App app{"solid: label-free synthetic pretraining data for object detectors.\n"
+               "Run 'solid COMMAND --help' for the flags of a command."};
   app.set_version_flag("--version", SOLID_VERSION);
-  CLI11_PARSE(app, argc, argv);
-  return 0;
+  app.require_subcommand(1);
+  std::map<CLI::App*, solid::cli::Command> commands;
+  for (auto add : {solid::cli::AddInspect, solid::cli::AddValidate, solid::cli::AddIndex}) {
+    solid::cli::Command run = add(app);
+    commands[app.get_subcommands({}).back()] = std::move(run);
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return solid::cli::kExitUsage;
+  }
+  for (CLI::App* sub : app.get_subcommands()) return commands.at(sub)();
+  return solid::cli::kExitUsage;
 }

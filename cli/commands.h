@@ -1,0 +1,23 @@
+// Each subcommand registers its flags on the app and returns the function that
+// runs it once the flags are parsed. Commands only map flags to options, call
+// one library entry point, print, and map the result to an exit code.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+
+#include "solid/formats/status.h"
+
+namespace solid::cli {
+
+using Command = std::function<int()>;
+
+Command AddInspect(CLI::App& app);
+Command AddValidate(CLI::App& app);
+Command AddIndex(CLI::App& app);
+
+// Prints "solid: <message>" on stderr and returns the exit code for the status.
+int Fail(const Status& status);
+
+}  // namespace solid::cli

@@ -1,0 +1,179 @@
+#include "file_util.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <xxhash.h>
+
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace solid::files {
+namespace {
+
+std::string HostName() {
+  char buf[256] = {};
+  if (gethostname(buf, sizeof buf - 1) != 0) return "host";
+  std::string host(buf);
+  for (char& c : host) {
+    if (c == '/' || c == '-' || c == ' ') c = '_';
+  }
+  return host.empty() ? "host" : host;
+}
+
+Status ErrnoStatus(std::string_view what, const std::filesystem::path& path, int err) {
+  StatusCode code = err == ENOENT ? StatusCode::kNotFound : err == EEXIST ? StatusCode::kAlreadyExists
+                                                                           : StatusCode::kIoError;
+  return Status(code, fmt::format("{}: {}: {}", path.string(), what, std::strerror(err)));
+}
+
+class Fd {
+ public:
+  explicit Fd(int fd) : fd_(fd) {}
+  ~Fd() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
+
+}  // namespace
+
+std::filesystem::path TempPathFor(const std::filesystem::path& final_path) {
+  // The sequence number keeps two writers of one file in the same process apart.
+  static std::atomic<uint64_t> sequence{0};
+  return final_path.string() + fmt::format(".tmp-{}-{}-{}", HostName(), ::getpid(), sequence++);
+}
+
+bool IsTempPath(const std::filesystem::path& path) {
+  return path.filename().string().find(".tmp-") != std::string::npos;
+}
+
+void RemoveStaleTemps(const std::filesystem::path& final_path) {
+  const std::string prefix = final_path.filename().string() + ".tmp-" + HostName() + "-";
+  std::error_code ec;
+  std::filesystem::path dir = final_path.parent_path().empty() ? "." : final_path.parent_path();
+  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+    std::string name = entry.path().filename().string();
+    if (!name.starts_with(prefix)) continue;
+    std::string_view pid_text = std::string_view(name).substr(prefix.size());
+    int pid = 0;
+    auto [end, perr] = std::from_chars(pid_text.data(), pid_text.data() + pid_text.size(), pid);
+    if (perr != std::errc() || end == pid_text.data() + pid_text.size() || *end != '-' || pid <= 0) continue;
+    // A pid that still runs may be a concurrent writer of the same file: leave it.
+    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno == EPERM) continue;
+    std::filesystem::remove(entry.path(), ec);
+  }
+}
+
+Status SyncFile(const std::filesystem::path& path) {
+  Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  if (fd.get() < 0) return ErrnoStatus("open for fsync", path, errno);
+  if (::fsync(fd.get()) != 0) return ErrnoStatus("fsync", path, errno);
+  return Status::Ok();
+}
+
+Status SyncDirectory(const std::filesystem::path& dir) {
+  std::filesystem::path d = dir.empty() ? "." : dir;
+  Fd fd(::open(d.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (fd.get() < 0) return ErrnoStatus("open directory for fsync", d, errno);
+  if (::fsync(fd.get()) != 0) return ErrnoStatus("fsync directory", d, errno);
+  return Status::Ok();
+}
+
+Status Publish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace) {
+  if (replace) {
+    if (::rename(temp.c_str(), final_path.c_str()) != 0) return ErrnoStatus("rename into place", final_path, errno);
+  } else if (::renameat2(AT_FDCWD, temp.c_str(), AT_FDCWD, final_path.c_str(), RENAME_NOREPLACE) != 0) {
+    int err = errno;
+    if (err != EINVAL && err != ENOSYS) return ErrnoStatus("rename into place", final_path, err);
+    // File systems without RENAME_NOREPLACE: link() fails on an existing target just the same.
+    if (::link(temp.c_str(), final_path.c_str()) != 0) return ErrnoStatus("link into place", final_path, errno);
+    ::unlink(temp.c_str());
+  }
+  return SyncDirectory(final_path.parent_path());
+}
+
+Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
+  std::filesystem::path temp = TempPathFor(path);
+  {
+    Fd fd(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+    if (fd.get() < 0) return ErrnoStatus("create", temp, errno);
+    size_t done = 0;
+    while (done < bytes.size()) {
+      ssize_t n = ::write(fd.get(), bytes.data() + done, bytes.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        Status s = ErrnoStatus("write", temp, errno);
+        ::unlink(temp.c_str());
+        return s;
+      }
+      done += static_cast<size_t>(n);
+    }
+    if (::fsync(fd.get()) != 0) {
+      Status s = ErrnoStatus("fsync", temp, errno);
+      ::unlink(temp.c_str());
+      return s;
+    }
+  }
+  Status s = Publish(temp, path, /*replace=*/true);
+  if (!s.ok()) ::unlink(temp.c_str());
+  return s;
+}
+
+Result<std::vector<uint8_t>> ReadFile(const std::filesystem::path& path, uint64_t max_bytes) {
+  Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  if (fd.get() < 0) return ErrnoStatus("open", path, errno);
+  struct stat st {};
+  if (::fstat(fd.get(), &st) != 0) return ErrnoStatus("stat", path, errno);
+  if (!S_ISREG(st.st_mode)) return InvalidArgumentError(path.string() + ": not a regular file");
+  if (static_cast<uint64_t>(st.st_size) > max_bytes) {
+    return LimitExceededError(fmt::format("{}: {} bytes, more than the limit of {}", path.string(),
+                                          st.st_size, max_bytes));
+  }
+  std::vector<uint8_t> out(static_cast<size_t>(st.st_size));
+  size_t done = 0;
+  while (done < out.size()) {
+    ssize_t n = ::read(fd.get(), out.data() + done, out.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return ErrnoStatus("read", path, errno);
+    if (n == 0) break;
+    done += static_cast<size_t>(n);
+  }
+  out.resize(done);
+  return out;
+}
+
+Result<FileDigest> DigestFile(const std::filesystem::path& path) {
+  Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  if (fd.get() < 0) return ErrnoStatus("open", path, errno);
+  std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> state(XXH64_createState(), XXH64_freeState);
+  XXH64_reset(state.get(), 0);
+  std::vector<uint8_t> buf(1 << 20);
+  FileDigest digest;
+  for (;;) {
+    ssize_t n = ::read(fd.get(), buf.data(), buf.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return ErrnoStatus("read", path, errno);
+    if (n == 0) break;
+    XXH64_update(state.get(), buf.data(), static_cast<size_t>(n));
+    digest.bytes += static_cast<uint64_t>(n);
+  }
+  digest.xxh64 = XXH64_digest(state.get());
+  return digest;
+}
+
+}  // namespace solid::files

@@ -1,0 +1,41 @@
+// Internal: atomic publication of files (write to a temporary sibling, sync,
+// rename) so that a reader never sees a partial file, whatever kills the writer.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <vector>
+
+#include "solid/formats/status.h"
+
+namespace solid::files {
+
+// "<final>.tmp-<host>-<pid>-<n>": unique per writer, recognisable as ours.
+std::filesystem::path TempPathFor(const std::filesystem::path& final_path);
+bool IsTempPath(const std::filesystem::path& path);
+
+// Removes "<final>.tmp-<this host>-<pid>-<n>" leftovers of writers that no longer run.
+void RemoveStaleTemps(const std::filesystem::path& final_path);
+
+Status SyncFile(const std::filesystem::path& path);
+Status SyncDirectory(const std::filesystem::path& dir);
+
+// Renames temp onto final and syncs the directory. With replace == false the
+// rename fails with kAlreadyExists if final exists (two writers of one shard).
+Status Publish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace);
+
+// Whole-file write through a synced temporary sibling.
+Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes);
+
+// Reads a whole file, refusing more than max_bytes.
+Result<std::vector<uint8_t>> ReadFile(const std::filesystem::path& path, uint64_t max_bytes);
+
+// XXH64 and size of a whole file, streamed.
+struct FileDigest {
+  uint64_t bytes = 0;
+  uint64_t xxh64 = 0;
+};
+Result<FileDigest> DigestFile(const std::filesystem::path& path);
+
+}  // namespace solid::files

@@ -1,0 +1,140 @@
+#include "solid/formats/image_codec.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+
+#include <string>
+
+namespace solid {
+namespace OIIO = OIIO_NAMESPACE;
+namespace {
+
+std::string FileNameFor(ImageFormat format) { return fmt::format("memory.{}", ImageFormatName(format)); }
+
+Status Error(std::string_view what, const std::string& detail) {
+  return Status(StatusCode::kParseError, fmt::format("{}: {}", what, detail.empty() ? "unknown error" : detail));
+}
+
+Result<std::vector<uint8_t>> Encode(const std::string& name, const OIIO::ImageSpec& spec, const void* pixels) {
+  std::vector<unsigned char> out;
+  OIIO::Filesystem::IOVecOutput proxy(out);
+  auto writer = OIIO::ImageOutput::create(name, &proxy);
+  if (!writer) return InternalError(fmt::format("no OpenImageIO writer for {}: {}", name, OIIO::geterror()));
+  if (!writer->open(name, spec) || !writer->write_image(spec.format, pixels) || !writer->close()) {
+    return InternalError(fmt::format("encoding {}: {}", name, writer->geterror()));
+  }
+  return std::vector<uint8_t>(out.begin(), out.end());
+}
+
+// OpenImageIO 2.4 reads from memory only when the proxy is also named in the
+// open configuration ("oiio:ioproxy"); the proxy argument alone is not enough.
+Result<std::unique_ptr<OIIO::ImageInput>> OpenFromMemory(const std::string& name,
+                                                         OIIO::Filesystem::IOMemReader* proxy) {
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  void* proxy_pointer = proxy;
+  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy_pointer);
+  auto reader = OIIO::ImageInput::open(name, &config, proxy);
+  if (!reader) return Error(fmt::format("decoding {}", name), OIIO::geterror());
+  return reader;
+}
+
+// Opens bytes for reading and checks the header against the limits.
+Result<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string& name, OIIO::Filesystem::IOMemReader* proxy,
+                                                      const ImageLimits& limits) {
+  SOLID_ASSIGN_OR_RETURN(auto reader, OpenFromMemory(name, proxy));
+  const OIIO::ImageSpec& spec = reader->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1) {
+    return Error(fmt::format("decoding {}", name), fmt::format("unsupported geometry {}x{}x{} channels, depth {}",
+                                                               spec.width, spec.height, spec.nchannels, spec.depth));
+  }
+  uint64_t pixels = static_cast<uint64_t>(spec.width) * static_cast<uint64_t>(spec.height);
+  if (static_cast<uint64_t>(spec.width) > limits.max_side || static_cast<uint64_t>(spec.height) > limits.max_side ||
+      pixels > limits.max_pixels || spec.nchannels > 4) {
+    return LimitExceededError(fmt::format("{}: header claims {}x{} with {} channels, over the limits ({} per side, "
+                                          "{} pixels, 4 channels)",
+                                          name, spec.width, spec.height, spec.nchannels, limits.max_side,
+                                          limits.max_pixels));
+  }
+  return reader;
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> EncodeImage(const Image8& image, ImageFormat format, int quality) {
+  if (image.width == 0 || image.height == 0 || image.channels == 0 || image.channels > 4 ||
+      image.pixels.size() != size_t{image.width} * image.height * image.channels) {
+    return InvalidArgumentError(fmt::format("EncodeImage: {}x{}x{} does not match {} bytes", image.width,
+                                            image.height, image.channels, image.pixels.size()));
+  }
+  OIIO::ImageSpec spec(static_cast<int>(image.width), static_cast<int>(image.height),
+                       static_cast<int>(image.channels), OIIO::TypeDesc::UINT8);
+  if (format != ImageFormat::kPng) {
+    // OpenImageIO 2.4's JPEG writer reads "Compression" ("jpeg:Q"); its WebP writer "CompressionQuality".
+    spec.attribute("Compression", fmt::format("{}:{}", ImageFormatName(format), quality));
+    spec.attribute("CompressionQuality", quality);
+  }
+  return Encode(FileNameFor(format), spec, image.pixels.data());
+}
+
+Result<Image8> DecodeImage(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  std::string name = FileNameFor(format);
+  SOLID_ASSIGN_OR_RETURN(auto reader, OpenChecked(name, &proxy, limits));
+  const OIIO::ImageSpec& spec = reader->spec();
+  Image8 image;
+  image.width = static_cast<uint32_t>(spec.width);
+  image.height = static_cast<uint32_t>(spec.height);
+  image.channels = static_cast<uint32_t>(spec.nchannels);
+  image.pixels.resize(size_t{image.width} * image.height * image.channels);
+  if (!reader->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, image.pixels.data())) {
+    return Error(fmt::format("decoding {}", name), reader->geterror());
+  }
+  return image;
+}
+
+Result<std::vector<uint8_t>> EncodeDepthExr(const DepthImage& depth) {
+  if (depth.width == 0 || depth.height == 0 || depth.values.size() != size_t{depth.width} * depth.height) {
+    return InvalidArgumentError(fmt::format("EncodeDepthExr: {}x{} does not match {} values", depth.width,
+                                            depth.height, depth.values.size()));
+  }
+  OIIO::ImageSpec spec(static_cast<int>(depth.width), static_cast<int>(depth.height), 1, OIIO::TypeDesc::HALF);
+  spec.channelnames = {"Z"};
+  spec.z_channel = 0;
+  spec.attribute("compression", "zip");
+  std::vector<unsigned char> out;
+  OIIO::Filesystem::IOVecOutput proxy(out);
+  auto writer = OIIO::ImageOutput::create("memory.exr", &proxy);
+  if (!writer) return InternalError(fmt::format("no OpenEXR writer: {}", OIIO::geterror()));
+  if (!writer->open("memory.exr", spec) || !writer->write_image(OIIO::TypeDesc::FLOAT, depth.values.data()) ||
+      !writer->close()) {
+    return InternalError(fmt::format("encoding depth EXR: {}", writer->geterror()));
+  }
+  return std::vector<uint8_t>(out.begin(), out.end());
+}
+
+Result<DepthImage> DecodeDepthExr(std::span<const uint8_t> bytes, const ImageLimits& limits) {
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  SOLID_ASSIGN_OR_RETURN(auto reader, OpenFromMemory("memory.exr", &proxy));
+  const OIIO::ImageSpec& spec = reader->spec();
+  uint64_t pixels = static_cast<uint64_t>(std::max(spec.width, 0)) * static_cast<uint64_t>(std::max(spec.height, 0));
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels != 1 || spec.depth != 1) {
+    return Error("decoding depth EXR", fmt::format("expected one channel, found {}x{}x{}", spec.width, spec.height,
+                                                   spec.nchannels));
+  }
+  if (static_cast<uint64_t>(spec.width) > limits.max_side || static_cast<uint64_t>(spec.height) > limits.max_side ||
+      pixels > limits.max_pixels) {
+    return LimitExceededError(fmt::format("depth EXR header claims {}x{}, over the limits", spec.width, spec.height));
+  }
+  DepthImage depth;
+  depth.width = static_cast<uint32_t>(spec.width);
+  depth.height = static_cast<uint32_t>(spec.height);
+  depth.values.resize(pixels);
+  if (!reader->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, depth.values.data())) {
+    return Error("decoding depth EXR", reader->geterror());
+  }
+  return depth;
+}
+
+}  // namespace solid

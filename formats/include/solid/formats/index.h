@@ -1,0 +1,30 @@
+// index.sqlite (schemas/index.sql): derived from the shards present, so that
+// lookups by model and dataset-wide metrics need no scan. It is only a cache:
+// BuildIndex rewrites it whole, atomically, from whatever complete shards exist
+// (unpublished temporaries of running writers are ignored).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "solid/formats/metrics.h"
+#include "solid/formats/progress.h"
+#include "solid/formats/status.h"
+
+namespace solid {
+
+struct IndexReport {
+  int64_t shards = 0, query_shards = 0, images = 0, instances = 0, models = 0, query_views = 0;
+  ProxyMetrics metrics;
+  std::vector<Status> skipped;  // shards that could not be read, with the reason; not indexed
+};
+
+Result<IndexReport> BuildIndex(const std::filesystem::path& dataset_root, const ProgressCallback& progress = {});
+
+// Compares index.sqlite with what BuildIndex would write now. Returns one message per
+// disagreement ("index.sqlite: shards row 3: bytes 1200 vs 1300 in the shard"), empty
+// when they agree. kNotFound when there is no index.
+Result<std::vector<std::string>> CompareIndex(const std::filesystem::path& dataset_root);
+
+}  // namespace solid

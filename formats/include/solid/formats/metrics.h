@@ -1,0 +1,56 @@
+// The paper's proxy metrics over stored instances (solid-method.md 1.2):
+// visible objects per image, mean occlusion pooled over visible instances, and
+// the COCO small/medium/large shares of visible objects by visible-mask area.
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+#include <nlohmann/json.hpp>
+
+#include "solid/formats/records.h"
+
+namespace solid {
+
+// A mean with its 95% confidence half-width (normal approximation; for shares,
+// the binomial standard error).
+struct Estimate {
+  double mean = 0;
+  double ci95 = 0;
+};
+
+struct ProxyMetrics {
+  int64_t images = 0;
+  int64_t instances = 0;          // stored, visible or not
+  int64_t visible_instances = 0;  // visible_area >= 1
+  Estimate objects_per_image;     // visible objects per image
+  Estimate occlusion;             // over visible instances
+  Estimate small, medium, large;  // shares of visible instances
+  nlohmann::json ToJson() const;
+};
+
+class MetricsAccumulator {
+ public:
+  // One image with all of its instances.
+  void AddImage(std::span<const InstanceRecord> instances);
+  // The same from counts alone, for callers that stream instances.
+  void AddImageCounts(int64_t instances, int64_t visible_instances);
+  void AddVisibleInstance(uint64_t visible_area, uint64_t full_area);
+  // Adds everything `other` has seen, as if it had been added here.
+  void Merge(const MetricsAccumulator& other);
+  ProxyMetrics Finish() const;
+
+ private:
+  struct Moments {
+    int64_t n = 0;
+    double mean = 0, m2 = 0;  // Welford
+    void Add(double x);
+    void Merge(const Moments& o);
+    Estimate Get() const;
+  };
+  int64_t images_ = 0, instances_ = 0;
+  Moments objects_, occlusion_;
+  int64_t visible_ = 0, small_ = 0, medium_ = 0, large_ = 0;
+};
+
+}  // namespace solid

@@ -1,0 +1,156 @@
+// Shards: one SQLite file of target images and instances (shards/shard-NNNNNN.sqlite)
+// or of query views (queries/queries-NNNNNN.sqlite). Layout: schemas/shard.sql and
+// schemas/queries.sql.
+//
+// Writers publish atomically: everything goes into "<file>.tmp-<host>-<pid>-<n>" in
+// one transaction; Commit() syncs and renames it into place. Until then the
+// shard is absent; a writer destroyed or killed before Commit() leaves nothing
+// a reader or the next writer trusts (stale temporaries of dead writers are
+// removed by the next writer of the same shard).
+//
+// Readers treat the file as untrusted: read-only, SQLite's defensive mode, the
+// schema compared with the embedded DDL, and every value checked (types,
+// ranges, checksums) before it is returned. Objects are not thread-safe; use
+// one per thread.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "solid/formats/records.h"
+#include "solid/formats/status.h"
+
+namespace solid {
+
+// "shard-000017.sqlite", "queries-000003.sqlite"
+std::string TargetShardFileName(int64_t shard_index);
+std::string QueryShardFileName(int64_t shard_index);
+// Inverse of the above: the index, or kInvalidArgument for any other name.
+Result<int64_t> ParseTargetShardFileName(std::string_view file_name);
+Result<int64_t> ParseQueryShardFileName(std::string_view file_name);
+
+struct ShardWriteOptions {
+  bool replace_existing = false;  // otherwise Create and Commit fail with kAlreadyExists
+};
+
+class ShardWriter {
+ public:
+  static Result<ShardWriter> Create(const std::filesystem::path& path, const ShardWriteOptions& options = {});
+  ShardWriter(ShardWriter&&) noexcept;
+  ShardWriter& operator=(ShardWriter&&) noexcept;
+  ~ShardWriter();  // abandons an uncommitted shard: removes the temporary file
+
+  // Provenance and bookkeeping (params_hash, generator_version, stage timings...).
+  Status SetMeta(std::string_view key, std::string_view value);
+  // Checksums are computed here. Instances must reference an image added before.
+  Status AddImage(const ImageRecord& image);
+  Status AddInstance(const InstanceRecord& instance);
+  // Publishes the shard. After an error the shard is absent and the writer spent.
+  Status Commit();
+
+  const std::filesystem::path& path() const;
+
+ private:
+  struct Impl;
+  explicit ShardWriter(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+class QueryShardWriter {
+ public:
+  static Result<QueryShardWriter> Create(const std::filesystem::path& path, const ShardWriteOptions& options = {});
+  QueryShardWriter(QueryShardWriter&&) noexcept;
+  QueryShardWriter& operator=(QueryShardWriter&&) noexcept;
+  ~QueryShardWriter();
+
+  Status SetMeta(std::string_view key, std::string_view value);
+  // A model's row first, then its views (view_count must equal the views added).
+  Status AddModel(const QueryModelRecord& model);
+  Status AddView(const QueryViewRecord& view);
+  Status Commit();
+
+  const std::filesystem::path& path() const;
+
+ private:
+  struct Impl;
+  explicit QueryShardWriter(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+struct ShardCounts {
+  int64_t images = 0;
+  int64_t instances = 0;
+  int64_t first_image_id = -1, last_image_id = -1;  // -1 when empty
+};
+
+struct ShardSummary {
+  ShardCounts counts;
+  int64_t image_bytes = 0, depth_images = 0, depth_bytes = 0, rle_bytes = 0;
+  int64_t visible_instances = 0, distinct_models = 0;
+};
+
+// What readers do with blob checksums. kVerify costs one XXH64 pass (GB/s).
+enum class ChecksumPolicy { kVerify, kSkip };
+
+class MetricsAccumulator;
+
+class ShardReader {
+ public:
+  static Result<ShardReader> Open(const std::filesystem::path& path);
+  ShardReader(ShardReader&&) noexcept;
+  ShardReader& operator=(ShardReader&&) noexcept;
+  ~ShardReader();
+
+  const std::filesystem::path& path() const;
+  Result<std::vector<std::pair<std::string, std::string>>> Meta();
+  Result<ShardCounts> Counts();
+
+  // Sizes and counts from aggregate queries (no blob is read). When `metrics` is
+  // given, every image and visible instance of the shard is added to it.
+  Result<ShardSummary> Summarize(MetricsAccumulator* metrics = nullptr);
+
+  // Image ids in ascending order.
+  Result<std::vector<int64_t>> ImageIds();
+  Result<ImageRecord> ReadImage(int64_t image_id, ChecksumPolicy policy = ChecksumPolicy::kVerify);
+  Result<std::vector<InstanceRecord>> InstancesOfImage(int64_t image_id,
+                                                       ChecksumPolicy policy = ChecksumPolicy::kVerify);
+  Result<std::vector<InstanceRecord>> InstancesOfModel(std::string_view model_key,
+                                                       ChecksumPolicy policy = ChecksumPolicy::kVerify);
+  // Streams every instance in (image_id, ordinal) order; the callback may stop
+  // the walk by returning a non-OK Status, which is returned.
+  Status ForEachInstance(const std::function<Status(const InstanceRecord&)>& fn,
+                         ChecksumPolicy policy = ChecksumPolicy::kVerify);
+
+ private:
+  struct Impl;
+  explicit ShardReader(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+class QueryShardReader {
+ public:
+  static Result<QueryShardReader> Open(const std::filesystem::path& path);
+  QueryShardReader(QueryShardReader&&) noexcept;
+  QueryShardReader& operator=(QueryShardReader&&) noexcept;
+  ~QueryShardReader();
+
+  const std::filesystem::path& path() const;
+  Result<std::vector<std::pair<std::string, std::string>>> Meta();
+  Result<std::vector<QueryModelRecord>> Models();
+  Result<std::vector<QueryViewRecord>> ViewsOfModel(std::string_view model_key,
+                                                    ChecksumPolicy policy = ChecksumPolicy::kVerify);
+  Status ForEachView(const std::function<Status(const QueryViewRecord&)>& fn,
+                     ChecksumPolicy policy = ChecksumPolicy::kVerify);
+
+ private:
+  struct Impl;
+  explicit QueryShardReader(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace solid

@@ -1,0 +1,49 @@
+// Full consistency check of a dataset or of one shard file. Never stops at the
+// first problem and never crashes on damaged files: every problem is reported
+// with its location (file, table, row id, field).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "solid/formats/progress.h"
+
+namespace solid {
+
+struct ValidationProblem {
+  std::string location;  // "shards/shard-000001.sqlite: instances row 17 (image 42 #3): visible_w"
+  std::string message;
+};
+
+struct ValidationReport {
+  std::vector<ValidationProblem> problems;
+  int64_t problems_not_listed = 0;  // beyond ValidateOptions::max_problems
+  int64_t shards = 0, query_shards = 0, images = 0, instances = 0, query_views = 0;
+
+  bool ok() const { return problems.empty() && problems_not_listed == 0; }
+  nlohmann::json ToJson() const;
+};
+
+struct ValidateOptions {
+  bool decode_images = true;  // decode every PNG/JPEG/WebP/EXR and compare its size
+  size_t max_problems = 1000;
+  ProgressCallback progress;  // in shard files
+};
+
+// Checks: the manifest against its schema; every shard's schema version, SQLite
+// integrity, blob checksums and value ranges; that image ids belong to their shard;
+// that every RLE decodes with runs summing to h*w; that stored boxes, areas,
+// occlusion and scale class equal those of the masks; that the full mask contains the
+// visible one; that images decode to their stored size; query view counts; that
+// every instanced model has query views once query shards exist; and that
+// index.sqlite agrees with the shards.
+ValidationReport ValidateDataset(const std::filesystem::path& root, const ValidateOptions& options = {});
+
+// The same checks for a single target or query shard file, without dataset context.
+ValidationReport ValidateShardFile(const std::filesystem::path& path, const ValidateOptions& options = {});
+
+}  // namespace solid

@@ -1,0 +1,271 @@
+#include "solid/formats/index.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <map>
+#include <optional>
+
+#include "file_util.h"
+#include "solid/formats/checksum.h"
+#include "solid/formats/dataset.h"
+#include "solid/formats/shard.h"
+#include "sqlite_schema.h"
+#include "sqlite_util.h"
+
+namespace solid {
+namespace fs = std::filesystem;
+using sqlite::Db;
+using sqlite::Stmt;
+
+namespace {
+
+struct ModelTotals {
+  int64_t instances = 0, images = 0;
+  std::optional<int64_t> query_shard;
+  int64_t view_count = 0;
+};
+
+// Everything one target shard contributes, gathered before any of it is merged so
+// that a shard that fails half-way contributes nothing.
+struct ShardContribution {
+  files::FileDigest digest;
+  ShardCounts counts;
+  std::map<std::pair<std::string, int64_t>, int64_t> occurrences;  // (model, image) -> instances
+  std::vector<std::pair<int64_t, int64_t>> image_counts;           // (instances, visible) per image
+  std::vector<std::pair<uint64_t, uint64_t>> visible_areas;         // (visible, full) per visible instance
+};
+
+Result<ShardContribution> ReadContribution(const fs::path& path) {
+  ShardContribution c;
+  SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
+  SOLID_ASSIGN_OR_RETURN(c.counts, reader.Counts());
+  SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, reader.ImageIds());
+  std::map<int64_t, std::pair<int64_t, int64_t>> per_image;
+  for (int64_t id : ids) per_image[id] = {0, 0};
+  SOLID_RETURN_IF_ERROR(reader.ForEachInstance(
+      [&](const InstanceRecord& in) -> Status {
+        auto it = per_image.find(in.image_id);
+        if (it == per_image.end()) {
+          return CorruptError(fmt::format("{}: instance of image {} which the shard does not hold", path.string(),
+                                          in.image_id));
+        }
+        ++it->second.first;
+        ++c.occurrences[{in.model_key, in.image_id}];
+        if (in.visible_area > 0) {
+          ++it->second.second;
+          c.visible_areas.emplace_back(in.visible_area, in.full_area);
+        }
+        return Status::Ok();
+      },
+      ChecksumPolicy::kSkip));
+  for (const auto& [id, counts] : per_image) c.image_counts.push_back(counts);
+  SOLID_ASSIGN_OR_RETURN(c.digest, files::DigestFile(path));
+  return c;
+}
+
+Status InsertMeta(Db& db, std::string_view key, std::string_view value) {
+  SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(db, "INSERT INTO index_meta VALUES (?, ?)"));
+  stmt.Bind(1, key).Bind(2, value);
+  return stmt.Run();
+}
+
+// Writes the whole index of the dataset at root into db, whose schema exists.
+Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallback& progress) {
+  SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(root));
+  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(root));
+  IndexReport report;
+  SOLID_RETURN_IF_ERROR(db.Exec("BEGIN"));
+  SOLID_RETURN_IF_ERROR(InsertMeta(db, "format_version", std::to_string(manifest.format_version)));
+  SOLID_RETURN_IF_ERROR(InsertMeta(db, "params_hash", Hex64(manifest.ParamsHash())));
+  SOLID_RETURN_IF_ERROR(InsertMeta(db, "seed", "0x" + Hex64(manifest.seed)));
+  SOLID_RETURN_IF_ERROR(InsertMeta(db, "planned_images", std::to_string(manifest.images)));
+  SOLID_RETURN_IF_ERROR(InsertMeta(db, "shard_size", std::to_string(manifest.shard_size)));
+
+  SOLID_ASSIGN_OR_RETURN(Stmt insert_shard, Stmt::Prepare(db, "INSERT INTO shards VALUES (?, ?, ?, ?, ?, ?, ?, ?)"));
+  SOLID_ASSIGN_OR_RETURN(Stmt insert_occurrence, Stmt::Prepare(db, "INSERT INTO occurrences VALUES (?, ?, ?, ?)"));
+  std::map<std::string, ModelTotals> models;
+  MetricsAccumulator metrics;
+  int64_t total = static_cast<int64_t>(listing.targets.size() + listing.queries.size()), done = 0;
+  for (const ShardFile& file : listing.targets) {
+    if (progress) progress(done++, total);
+    Result<ShardContribution> c = ReadContribution(file.path);
+    if (!c.ok()) {
+      report.skipped.push_back(c.status());
+      continue;
+    }
+    std::string relative = fs::relative(file.path, root).generic_string();
+    insert_shard.Bind(1, file.index).Bind(2, std::string_view(relative)).Bind(3, static_cast<int64_t>(c->digest.bytes));
+    insert_shard.Bind(4, ToSqlInt(c->digest.xxh64)).Bind(5, c->counts.images).Bind(6, c->counts.instances);
+    if (c->counts.images > 0) {
+      insert_shard.Bind(7, c->counts.first_image_id).Bind(8, c->counts.last_image_id);
+    } else {
+      insert_shard.BindNull(7).BindNull(8);
+    }
+    SOLID_RETURN_IF_ERROR(insert_shard.Run());
+    for (const auto& [key, count] : c->occurrences) {
+      insert_occurrence.Bind(1, std::string_view(key.first)).Bind(2, key.second).Bind(3, file.index).Bind(4, count);
+      SOLID_RETURN_IF_ERROR(insert_occurrence.Run());
+      ModelTotals& m = models[key.first];
+      m.instances += count;
+      ++m.images;
+    }
+    for (const auto& [instances, visible] : c->image_counts) metrics.AddImageCounts(instances, visible);
+    for (const auto& [visible, full] : c->visible_areas) metrics.AddVisibleInstance(visible, full);
+    ++report.shards;
+    report.images += c->counts.images;
+    report.instances += c->counts.instances;
+  }
+
+  SOLID_ASSIGN_OR_RETURN(Stmt insert_query_shard, Stmt::Prepare(db, "INSERT INTO query_shards VALUES (?, ?, ?, ?, ?, ?)"));
+  for (const ShardFile& file : listing.queries) {
+    if (progress) progress(done++, total);
+    auto read = [&]() -> Result<std::pair<std::vector<QueryModelRecord>, files::FileDigest>> {
+      SOLID_ASSIGN_OR_RETURN(QueryShardReader reader, QueryShardReader::Open(file.path));
+      SOLID_ASSIGN_OR_RETURN(std::vector<QueryModelRecord> shard_models, reader.Models());
+      SOLID_ASSIGN_OR_RETURN(files::FileDigest digest, files::DigestFile(file.path));
+      return std::make_pair(std::move(shard_models), digest);
+    };
+    auto result = read();
+    if (!result.ok()) {
+      report.skipped.push_back(result.status());
+      continue;
+    }
+    int64_t views = 0;
+    for (const QueryModelRecord& m : result->first) {
+      ModelTotals& totals = models[m.model_key];
+      if (totals.query_shard) {
+        report.skipped.push_back(CorruptError(fmt::format("{}: model {} already has views in query shard {}",
+                                                          file.path.string(), m.model_key, *totals.query_shard)));
+        continue;
+      }
+      totals.query_shard = file.index;
+      totals.view_count = m.view_count;
+      views += m.view_count;
+    }
+    std::string relative = fs::relative(file.path, root).generic_string();
+    insert_query_shard.Bind(1, file.index).Bind(2, std::string_view(relative));
+    insert_query_shard.Bind(3, static_cast<int64_t>(result->second.bytes)).Bind(4, ToSqlInt(result->second.xxh64));
+    insert_query_shard.Bind(5, static_cast<int64_t>(result->first.size())).Bind(6, views);
+    SOLID_RETURN_IF_ERROR(insert_query_shard.Run());
+    ++report.query_shards;
+    report.query_views += views;
+  }
+
+  SOLID_ASSIGN_OR_RETURN(Stmt insert_model, Stmt::Prepare(db, "INSERT INTO models VALUES (?, ?, ?, ?, ?)"));
+  for (const auto& [key, m] : models) {
+    insert_model.Bind(1, std::string_view(key)).Bind(2, m.instances).Bind(3, m.images);
+    insert_model.Bind(4, m.query_shard).Bind(5, m.view_count);
+    SOLID_RETURN_IF_ERROR(insert_model.Run());
+  }
+  report.models = static_cast<int64_t>(models.size());
+
+  report.metrics = metrics.Finish();
+  const ProxyMetrics& pm = report.metrics;
+  SOLID_ASSIGN_OR_RETURN(Stmt insert_metric, Stmt::Prepare(db, "INSERT INTO metrics VALUES (?, ?)"));
+  for (const auto& [name, value] : std::initializer_list<std::pair<std::string_view, double>>{
+           {"images", static_cast<double>(pm.images)},
+           {"instances", static_cast<double>(pm.instances)},
+           {"visible_instances", static_cast<double>(pm.visible_instances)},
+           {"objects_per_image", pm.objects_per_image.mean},
+           {"objects_per_image_ci95", pm.objects_per_image.ci95},
+           {"occlusion", pm.occlusion.mean},
+           {"occlusion_ci95", pm.occlusion.ci95},
+           {"share_small", pm.small.mean},
+           {"share_medium", pm.medium.mean},
+           {"share_large", pm.large.mean}}) {
+    insert_metric.Bind(1, name).Bind(2, value);
+    SOLID_RETURN_IF_ERROR(insert_metric.Run());
+  }
+  SOLID_RETURN_IF_ERROR(db.Exec("COMMIT"));
+  if (progress) progress(total, total);
+  return report;
+}
+
+std::string ValueText(const Stmt& s, int col) {
+  switch (s.ColumnType(col)) {
+    case SQLITE_NULL: return "NULL";
+    case SQLITE_INTEGER: return std::to_string(s.Int(col));
+    case SQLITE_FLOAT: return fmt::format("{}", s.Real(col));
+    default: return std::string(s.Text(col).substr(0, 80));
+  }
+}
+
+bool SameValue(const Stmt& a, const Stmt& b, int col) {
+  if (a.ColumnType(col) != b.ColumnType(col)) return false;
+  switch (a.ColumnType(col)) {
+    case SQLITE_NULL: return true;
+    case SQLITE_INTEGER: return a.Int(col) == b.Int(col);
+    case SQLITE_FLOAT: {
+      double x = a.Real(col), y = b.Real(col);
+      return std::fabs(x - y) <= 1e-9 * std::max({1.0, std::fabs(x), std::fabs(y)});
+    }
+    default: return a.Text(col) == b.Text(col);
+  }
+}
+
+}  // namespace
+
+Result<IndexReport> BuildIndex(const fs::path& root, const ProgressCallback& progress) {
+  DatasetPaths paths(root);
+  fs::path temp = files::TempPathFor(paths.index());
+  files::RemoveStaleTemps(paths.index());
+  std::error_code ec;
+  fs::remove(temp, ec);
+  Result<IndexReport> report = [&]() -> Result<IndexReport> {
+    SOLID_ASSIGN_OR_RETURN(Db db, Db::Open(temp, sqlite::OpenMode::kCreate));
+    SOLID_RETURN_IF_ERROR(db.Exec("PRAGMA journal_mode = OFF; PRAGMA synchronous = OFF;"));
+    SOLID_RETURN_IF_ERROR(sqlite::CreateSchema(db, "index.sql"));
+    SOLID_ASSIGN_OR_RETURN(IndexReport r, FillIndex(db, root, progress));
+    db.Close();
+    SOLID_RETURN_IF_ERROR(files::SyncFile(temp));
+    SOLID_RETURN_IF_ERROR(files::Publish(temp, paths.index(), /*replace=*/true));
+    return r;
+  }();
+  if (!report.ok()) fs::remove(temp, ec);
+  return report;
+}
+
+Result<std::vector<std::string>> CompareIndex(const fs::path& root) {
+  DatasetPaths paths(root);
+  std::error_code ec;
+  if (!fs::exists(paths.index(), ec)) return NotFoundError(paths.index().string() + ": no index (run solid index)");
+  SOLID_ASSIGN_OR_RETURN(Db expected, Db::OpenInMemory());
+  SOLID_RETURN_IF_ERROR(sqlite::CreateSchema(expected, "index.sql"));
+  SOLID_ASSIGN_OR_RETURN(IndexReport report, FillIndex(expected, root, {}));
+  SOLID_ASSIGN_OR_RETURN(Db actual, Db::Open(paths.index(), sqlite::OpenMode::kUntrustedRead));
+  SOLID_RETURN_IF_ERROR(sqlite::CheckSchema(actual, "index.sql"));
+
+  std::vector<std::string> diffs;
+  constexpr size_t kMaxDiffs = 50;
+  for (std::string_view table : {"index_meta", "shards", "query_shards", "occurrences", "models", "metrics"}) {
+    std::string sql = fmt::format("SELECT * FROM {} ORDER BY 1, 2", table);
+    SOLID_ASSIGN_OR_RETURN(Stmt want, Stmt::Prepare(expected, sql));
+    SOLID_ASSIGN_OR_RETURN(Stmt have, Stmt::Prepare(actual, sql));
+    for (int64_t row = 0; diffs.size() < kMaxDiffs; ++row) {
+      SOLID_ASSIGN_OR_RETURN(bool want_row, want.Step());
+      SOLID_ASSIGN_OR_RETURN(bool have_row, have.Step());
+      if (!want_row && !have_row) break;
+      std::string where = fmt::format("{}: {} row {}", paths.index().string(), table, row);
+      // Name the shard file itself, which is what a user has to look at.
+      for (int c = 0; want_row && c < want.ColumnCount(); ++c) {
+        if (want.ColumnName(c) == "file") where = fmt::format("{} ({})", where, want.Text(c));
+      }
+      if (want_row != have_row) {
+        diffs.push_back(fmt::format("{}: the index has {} rows than the shards give", where,
+                                    have_row ? "more" : "fewer"));
+        break;
+      }
+      for (int c = 0; c < want.ColumnCount(); ++c) {
+        if (!SameValue(want, have, c)) {
+          diffs.push_back(fmt::format("{}: {}: {} in the index, {} from the shards", where, want.ColumnName(c),
+                                      ValueText(have, c), ValueText(want, c)));
+        }
+      }
+    }
+  }
+  for (const Status& s : report.skipped) diffs.push_back("not indexable: " + s.message());
+  return diffs;
+}
+
+}  // namespace solid

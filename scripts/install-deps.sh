@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs everything solid needs to build, test and benchmark on Debian 12.
+# Idempotent: packages already present are left alone, and nothing is fetched
+# from outside the Debian archive. Run as root (or through sudo).
+set -euo pipefail
+
+packages=(
+  # toolchain
+  g++ cmake ninja-build pkg-config
+  # libraries (DESIGN.md, "Dependencies")
+  libsqlite3-dev libxxhash-dev nlohmann-json3-dev libcli11-dev libfmt-dev
+  libopenimageio-dev libopenexr-dev
+  libembree-dev libdraco-dev libtinygltf-dev libtinyobjloader-dev libmeshoptimizer-dev
+  libnlopt-cxx-dev libtbb-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "install-deps: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

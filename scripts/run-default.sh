@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# The main job of README.md on the embedded default, with no download.
+# Until `solid render` lands (issue: render), the data comes from the 2D-shape
+# fixture generator of tests/ through the same writer API the renderer will use;
+# the rest is the real pipeline tail: index, validate, inspect.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install-deps.sh
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build -j "$(nproc)" --target solid make_fixture_dataset
+out=${1:-out/default}
+rm -rf "$out"
+build/tests/make_fixture_dataset "$out" --images 200 --shard-size 64 --depth
+build/cli/solid index "$out"
+build/cli/solid validate "$out"
+build/cli/solid inspect "$out"

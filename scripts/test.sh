@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The test command of README.md: installs dependencies, builds once (warnings as
+# errors, AddressSanitizer + UndefinedBehaviorSanitizer) and runs every ctest suite.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install-deps.sh
+build=${SOLID_TEST_BUILD_DIR:-build-test}
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DSOLID_WERROR=ON -DSOLID_SANITIZE=ON -DSOLID_BUILD_BENCH=ON >/dev/null
+cmake --build "$build" -j "$(nproc)"
+# The benchmarks are built (so they cannot rot) but never run here: they are slow by design.
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1
+ctest --test-dir "$build" --output-on-failure -j "$(nproc)"

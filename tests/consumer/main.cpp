@@ -1,0 +1,18 @@
+// Encodes a mask with the installed library and checks pycocotools' string for it.
+#include <solid/formats/rle.h>
+
+#include <cstdio>
+#include <vector>
+
+int main() {
+  // 5x5 with the single pixel (x=3, y=1) set: COCO counts "`018" (testdata single-5x5-4).
+  std::vector<uint8_t> mask(25, 0);
+  mask[1 * 5 + 3] = 1;
+  std::string counts = solid::rle::ToString(solid::rle::EncodeRowMajor(mask, 5, 5));
+  if (counts != "`018") {
+    std::fprintf(stderr, "consumer: got '%s', expected '`018'\n", counts.c_str());
+    return 1;
+  }
+  std::printf("consumer: ok\n");
+  return 0;
+}

@@ -1,0 +1,138 @@
+// Damaged shards: flipped bytes and truncation anywhere in the file. validate must
+// report a problem that names the damaged file, and the readers must return
+// errors or values, never crash (this suite runs under ASan and UBSan in CI).
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <random>
+
+#include <sqlite3.h>
+
+#include "fixtures/layered_dataset.h"
+#include "formats/test_util.h"
+#include "solid/formats/dataset.h"
+#include "solid/formats/inspect.h"
+#include "solid/formats/shard.h"
+#include "solid/formats/validate.h"
+
+namespace solid {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::TempDir;
+
+std::vector<char> ReadAll(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void WriteAll(const fs::path& p, const std::vector<char>& bytes) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// Reads everything a consumer would; the result may be an error, never a crash.
+void ReadEverything(const fs::path& shard) {
+  auto reader = ShardReader::Open(shard);
+  if (!reader.ok()) return;
+  (void)reader->Meta();
+  (void)reader->Summarize(nullptr);
+  auto ids = reader->ImageIds();
+  if (!ids.ok()) return;
+  for (int64_t id : *ids) {
+    (void)reader->ReadImage(id);
+    (void)reader->InstancesOfImage(id);
+  }
+  (void)reader->InstancesOfModel("fixture/model-01");
+}
+
+bool MentionsFile(const ValidationReport& report, const std::string& file) {
+  for (const auto& p : report.problems) {
+    if (p.location.find(file) != std::string::npos || p.message.find(file) != std::string::npos) return true;
+  }
+  return false;
+}
+
+class Corruption : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    fixtures::LayeredDatasetOptions options;
+    options.images = 6;
+    options.shard_size = 3;
+    options.width = 64;
+    options.height = 48;
+    ASSERT_OK(fixtures::WriteLayeredDataset(dir_.path(), options));
+    shard_ = DatasetPaths(dir_.path()).shard(1);
+    pristine_ = ReadAll(shard_);
+    ASSERT_TRUE(ValidateDataset(dir_.path()).ok());
+  }
+
+  TempDir dir_;
+  fs::path shard_;
+  std::vector<char> pristine_;
+};
+
+TEST_F(Corruption, FlippedBytesAreReportedWithTheirFile) {
+  std::mt19937_64 rng(20261123);
+  constexpr int kFlips = 250;
+  int reported_inside_shard = 0;
+  for (int i = 0; i < kFlips; ++i) {
+    std::vector<char> bytes = pristine_;
+    size_t offset = rng() % bytes.size();
+    bytes[offset] = static_cast<char>(bytes[offset] ^ static_cast<char>(1 + rng() % 255));
+    WriteAll(shard_, bytes);
+    ReadEverything(shard_);
+    (void)Inspect(dir_.path());
+    ValidateOptions options;
+    options.decode_images = (i % 4) == 0;  // decoding is the slow part; every fourth run does it
+    ValidationReport report = ValidateDataset(dir_.path(), options);
+    ASSERT_FALSE(report.ok()) << "flip at offset " << offset << " went unnoticed";
+    EXPECT_TRUE(MentionsFile(report, "shard-000001.sqlite")) << "flip at offset " << offset;
+    // Beyond the whole-file checksum in the index, most flips are caught by the shard's own checks.
+    ValidationReport alone = ValidateShardFile(shard_, options);
+    reported_inside_shard += !alone.ok();
+  }
+  WriteAll(shard_, pristine_);
+  EXPECT_TRUE(ValidateDataset(dir_.path()).ok());
+  RecordProperty("flips_caught_without_index", reported_inside_shard);
+  std::printf("%d of %d flips caught by the shard's own checks (all %d by validate)\n", reported_inside_shard, kFlips,
+              kFlips);
+}
+
+TEST_F(Corruption, TruncatedShardsAreReportedAndNeverCrashReaders) {
+  std::mt19937_64 rng(7);
+  for (int i = 0; i < 40; ++i) {
+    size_t length = i == 0 ? 0 : rng() % pristine_.size();
+    WriteAll(shard_, std::vector<char>(pristine_.begin(), pristine_.begin() + static_cast<std::ptrdiff_t>(length)));
+    ReadEverything(shard_);
+    ValidateOptions options;
+    options.decode_images = false;
+    ValidationReport report = ValidateDataset(dir_.path(), options);
+    ASSERT_FALSE(report.ok()) << "truncation to " << length << " bytes went unnoticed";
+    EXPECT_TRUE(MentionsFile(report, "shard-000001.sqlite")) << "truncated to " << length;
+  }
+}
+
+TEST_F(Corruption, ShardReaderNamesTheRowOfABadChecksum) {
+  // Overwrite the stored checksum of one image through SQLite itself, as a
+  // deliberate, well-formed inconsistency.
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(shard_.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "UPDATE images SET image_xxh64 = image_xxh64 + 1 WHERE image_id = 4", nullptr, nullptr,
+                           nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+  }
+  auto reader = ShardReader::Open(shard_);
+  ASSERT_OK(reader.status());
+  auto image = reader->ReadImage(4);
+  ASSERT_FALSE(image.ok());
+  EXPECT_EQ(image.status().code(), StatusCode::kCorrupt);
+  EXPECT_NE(image.status().message().find("images row 4: image: checksum mismatch"), std::string::npos)
+      << image.status().message();
+  EXPECT_OK(reader->ReadImage(3, ChecksumPolicy::kVerify).status());
+}
+
+}  // namespace
+}  // namespace solid

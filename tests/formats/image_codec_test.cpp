@@ -1,0 +1,99 @@
+#include "solid/formats/image_codec.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "formats/test_util.h"
+
+namespace solid {
+namespace {
+
+Image8 Gradient(uint32_t w, uint32_t h, uint32_t channels) {
+  Image8 im{w, h, channels, std::vector<uint8_t>(size_t{w} * h * channels)};
+  for (size_t i = 0; i < im.pixels.size(); ++i) im.pixels[i] = static_cast<uint8_t>((i * 7) % 251);
+  return im;
+}
+
+TEST(ImageCodec, PngIsLosslessAndDeterministic) {
+  Image8 im = Gradient(37, 21, 3);
+  auto a = EncodeImage(im, ImageFormat::kPng);
+  auto b = EncodeImage(im, ImageFormat::kPng);
+  ASSERT_OK(a.status());
+  ASSERT_OK(b.status());
+  EXPECT_EQ(*a, *b);
+  auto decoded = DecodeImage(*a, ImageFormat::kPng);
+  ASSERT_OK(decoded.status());
+  EXPECT_EQ(decoded->width, 37u);
+  EXPECT_EQ(decoded->height, 21u);
+  EXPECT_EQ(decoded->channels, 3u);
+  EXPECT_EQ(decoded->pixels, im.pixels);
+}
+
+TEST(ImageCodec, JpegRoundTripsWithinLossyTolerance) {
+  Image8 im{64, 64, 3, std::vector<uint8_t>(64 * 64 * 3, 128)};
+  auto bytes = EncodeImage(im, ImageFormat::kJpeg, 95);
+  ASSERT_OK(bytes.status());
+  auto decoded = DecodeImage(*bytes, ImageFormat::kJpeg);
+  ASSERT_OK(decoded.status());
+  // A flat image survives JPEG at quality 95 to within 2 levels per pixel.
+  for (uint8_t v : decoded->pixels) EXPECT_NEAR(v, 128, 2);
+}
+
+TEST(ImageCodec, DepthExrKeepsHalfPrecision) {
+  DepthImage depth{13, 7, std::vector<float>(13 * 7)};
+  for (size_t i = 0; i < depth.values.size(); ++i) depth.values[i] = 0.5f + 0.37f * static_cast<float>(i);
+  auto bytes = EncodeDepthExr(depth);
+  ASSERT_OK(bytes.status());
+  auto decoded = DecodeDepthExr(*bytes);
+  ASSERT_OK(decoded.status());
+  ASSERT_EQ(decoded->values.size(), depth.values.size());
+  // half has an 11-bit significand: relative error at most 2^-11.
+  for (size_t i = 0; i < depth.values.size(); ++i) {
+    EXPECT_NEAR(decoded->values[i], depth.values[i], depth.values[i] * (1.0 / 2048));
+  }
+}
+
+// PNG chunk CRC (ISO 3309), so that a forged header is otherwise valid.
+uint32_t Crc32(const uint8_t* data, size_t n) {
+  uint32_t crc = 0xFFFFFFFFu;
+  for (size_t i = 0; i < n; ++i) {
+    crc ^= data[i];
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return ~crc;
+}
+
+TEST(ImageCodec, RefusesDecompressionBombsBeforeDecoding) {
+  auto small = EncodeImage(Gradient(8, 8, 3), ImageFormat::kPng);
+  ASSERT_OK(small.status());
+  std::vector<uint8_t> bomb = *small;
+  // IHDR width and height live at bytes 16..23 (big-endian); claim 100000 x 100000.
+  const uint8_t kHuge[4] = {0x00, 0x01, 0x86, 0xA0};
+  std::copy(kHuge, kHuge + 4, bomb.begin() + 16);
+  std::copy(kHuge, kHuge + 4, bomb.begin() + 20);
+  uint32_t crc = Crc32(bomb.data() + 12, 17);  // chunk type and the 13 bytes of IHDR data
+  for (int k = 0; k < 4; ++k) bomb[29 + k] = static_cast<uint8_t>(crc >> (24 - 8 * k));
+  auto decoded = DecodeImage(bomb, ImageFormat::kPng);
+  ASSERT_FALSE(decoded.ok());
+  EXPECT_EQ(decoded.status().code(), StatusCode::kLimitExceeded) << decoded.status().ToString();
+  EXPECT_NE(decoded.status().message().find("100000x100000"), std::string::npos) << decoded.status().message();
+}
+
+TEST(ImageCodec, GarbageIsAnErrorNotACrash) {
+  std::vector<uint8_t> garbage(300);
+  for (size_t i = 0; i < garbage.size(); ++i) garbage[i] = static_cast<uint8_t>(i * 31);
+  for (ImageFormat f : {ImageFormat::kPng, ImageFormat::kJpeg, ImageFormat::kWebp}) {
+    EXPECT_FALSE(DecodeImage(garbage, f).ok());
+  }
+  EXPECT_FALSE(DecodeDepthExr(garbage).ok());
+  EXPECT_FALSE(DecodeImage({}, ImageFormat::kPng).ok());
+}
+
+TEST(ImageCodec, RejectsMismatchedBuffers) {
+  Image8 wrong{4, 4, 3, std::vector<uint8_t>(10)};
+  EXPECT_EQ(EncodeImage(wrong, ImageFormat::kPng).status().code(), StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace solid
