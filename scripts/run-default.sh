@@ -10,7 +10,7 @@ cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j "$(nproc)" --target solid make_fixture_dataset
 out=${1:-out/default}
 rm -rf "$out"
-build/tests/make_fixture_dataset "$out" --images 200 --shard-size 64 --depth
+build/tests/make_fixture_dataset "$out" --images 200 --shard-size 64 --width 320 --height 240 --depth
 build/cli/solid index "$out"
 build/cli/solid validate "$out"
 build/cli/solid inspect "$out"
