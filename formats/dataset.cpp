@@ -171,23 +171,31 @@ Dataset::~Dataset() = default;
 
 namespace {
 // The index is a cache: trust it only if it lists exactly the shard files present, with their sizes.
+bool IndexListsExactly(sqlite::Db& db, std::string_view table, const std::vector<ShardFile>& files) {
+  Result<sqlite::Stmt> stmt =
+      sqlite::Stmt::Prepare(db, fmt::format("SELECT shard_index, bytes FROM {} ORDER BY shard_index", table));
+  if (!stmt.ok()) return false;
+  std::error_code ec;
+  size_t i = 0;
+  for (;; ++i) {
+    Result<bool> row = stmt->Step();
+    if (!row.ok()) return false;
+    if (!*row) break;
+    if (i >= files.size() || stmt->Int(0) != files[i].index) return false;
+    uintmax_t size = fs::file_size(files[i].path, ec);
+    if (ec || static_cast<int64_t>(size) != stmt->Int(1)) return false;
+  }
+  return i == files.size();
+}
+
 std::optional<sqlite::Db> OpenIndexIfCurrent(const DatasetPaths& paths, const ShardListing& listing) {
   std::error_code ec;
   if (!fs::exists(paths.index(), ec)) return std::nullopt;
   Result<sqlite::Db> db = sqlite::Db::Open(paths.index(), sqlite::OpenMode::kUntrustedRead);
   if (!db.ok() || !sqlite::CheckSchema(*db, "index.sql").ok()) return std::nullopt;
-  Result<sqlite::Stmt> stmt = sqlite::Stmt::Prepare(*db, "SELECT shard_index, bytes FROM shards ORDER BY shard_index");
-  if (!stmt.ok()) return std::nullopt;
-  size_t i = 0;
-  for (;; ++i) {
-    Result<bool> row = stmt->Step();
-    if (!row.ok()) return std::nullopt;
-    if (!*row) break;
-    if (i >= listing.targets.size() || stmt->Int(0) != listing.targets[i].index) return std::nullopt;
-    uintmax_t size = fs::file_size(listing.targets[i].path, ec);
-    if (ec || static_cast<int64_t>(size) != stmt->Int(1)) return std::nullopt;
+  if (!IndexListsExactly(*db, "shards", listing.targets) || !IndexListsExactly(*db, "query_shards", listing.queries)) {
+    return std::nullopt;
   }
-  if (i != listing.targets.size()) return std::nullopt;
   return std::move(db).value();
 }
 }  // namespace
@@ -282,6 +290,15 @@ Result<std::vector<InstanceRecord>> Dataset::InstancesOfModel(std::string_view m
 }
 
 Result<std::vector<QueryViewRecord>> Dataset::QueryViews(std::string_view model_key) {
+  if (impl_->index) {
+    SOLID_ASSIGN_OR_RETURN(sqlite::Stmt stmt, sqlite::Stmt::Prepare(*impl_->index, "SELECT query_shard_index FROM "
+                                                                                   "models WHERE model_key = ?"));
+    stmt.Bind(1, model_key);
+    SOLID_ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row || stmt.ColumnType(0) != SQLITE_INTEGER) return std::vector<QueryViewRecord>();
+    SOLID_ASSIGN_OR_RETURN(QueryShardReader reader, QueryShardReader::Open(paths().query_shard(stmt.Int(0))));
+    return reader.ViewsOfModel(model_key);
+  }
   for (const ShardFile& file : impl_->listing.queries) {
     SOLID_ASSIGN_OR_RETURN(QueryShardReader reader, QueryShardReader::Open(file.path));
     SOLID_ASSIGN_OR_RETURN(std::vector<QueryViewRecord> views, reader.ViewsOfModel(model_key));

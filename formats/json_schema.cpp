@@ -1,3 +1,7 @@
+// GCC 12.2 with sanitizers warns falsely inside libstdc++'s std::regex and std::function
+// (GCC bug 105562); the pragma covers only the library headers, not our code below.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include "solid/formats/json_schema.h"
 
 #include <algorithm>
@@ -11,6 +15,7 @@
 #include <regex>
 #include <unordered_map>
 #include <utility>
+#pragma GCC diagnostic pop
 
 namespace solid::json {
 
@@ -22,8 +27,8 @@ namespace {
 // Text helpers
 
 size_t CountCodePoints(std::string_view utf8) {
-  return static_cast<size_t>(
-      std::count_if(utf8.begin(), utf8.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; }));
+  return static_cast<size_t>(std::count_if(
+      utf8.begin(), utf8.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; }));
 }
 
 struct LineColumn {
@@ -36,7 +41,8 @@ LineColumn LineColumnAt(std::string_view text, size_t offset) {
   const std::string_view before = text.substr(0, offset);
   const size_t line = 1 + static_cast<size_t>(std::count(before.begin(), before.end(), '\n'));
   const size_t line_start = before.find_last_of('\n');
-  const std::string_view on_line = line_start == std::string_view::npos ? before : before.substr(line_start + 1);
+  const std::string_view on_line =
+      line_start == std::string_view::npos ? before : before.substr(line_start + 1);
   return {line, 1 + CountCodePoints(on_line)};
 }
 
@@ -135,7 +141,8 @@ std::optional<std::string> ClosestName(std::string_view name, const Names& candi
     const size_t length_difference =
         name.size() > candidate.size() ? name.size() - candidate.size() : candidate.size() - name.size();
     if (length_difference >= best_distance) continue;  // a lower bound: skips hopeless long names cheaply
-    const size_t allowed = std::clamp<size_t>(std::max(name.size(), candidate.size()) / 3, 1, kMaxSuggestedDistance);
+    const size_t allowed =
+        std::clamp<size_t>(std::max(name.size(), candidate.size()) / 3, 1, kMaxSuggestedDistance);
     const size_t distance = EditDistance(name, candidate);
     if (distance <= allowed && distance < best_distance) {
       best_distance = distance;
@@ -183,9 +190,11 @@ size_t OffsetOfNthToken(std::string_view text, TokenKind kind, size_t n) {
 // "syntax error ...": we print the location ourselves, in our own format.
 std::string NlohmannMessage(const json::exception& error) {
   std::string_view message = error.what();
-  if (const size_t id_end = message.find("] "); id_end != std::string_view::npos) message.remove_prefix(id_end + 2);
+  if (const size_t id_end = message.find("] "); id_end != std::string_view::npos)
+    message.remove_prefix(id_end + 2);
   if (message.starts_with("parse error")) {
-    if (const size_t colon = message.find(": "); colon != std::string_view::npos) message.remove_prefix(colon + 2);
+    if (const size_t colon = message.find(": "); colon != std::string_view::npos)
+      message.remove_prefix(colon + 2);
   }
   return std::string(message);
 }
@@ -229,7 +238,8 @@ class LimitedDomBuilder final : public nlohmann::json_sax<json> {
     return true;
   }
 
-  bool parse_error(size_t position, const std::string& /*last_token*/, const json::exception& error) override {
+  bool parse_error(size_t position, const std::string& /*last_token*/,
+                   const json::exception& error) override {
     // `position` counts the bytes read, the offending one included.
     return Fail(StatusCode::kParseError, NlohmannMessage(error), position > 0 ? position - 1 : 0);
   }
@@ -302,7 +312,8 @@ class LimitedDomBuilder final : public nlohmann::json_sax<json> {
 Result<json> ParseJson(std::string_view text, std::string_view name, const ParseLimits& limits) {
   if (text.size() > limits.max_bytes) {
     return LimitExceededError(std::string(name) + ": " + std::to_string(text.size()) +
-                              " bytes is more than the limit of " + std::to_string(limits.max_bytes) + " bytes");
+                              " bytes is more than the limit of " + std::to_string(limits.max_bytes) +
+                              " bytes");
   }
   LimitedDomBuilder builder(text, limits);
   try {
@@ -310,11 +321,12 @@ Result<json> ParseJson(std::string_view text, std::string_view name, const Parse
   } catch (const json::exception& error) {
     return InternalError(std::string(name) + ": JSON parser failed: " + error.what());
   }
-  if (!builder.failure()) return InternalError(std::string(name) + ": JSON parser stopped without saying why");
+  if (!builder.failure())
+    return InternalError(std::string(name) + ": JSON parser stopped without saying why");
   const auto& failure = *builder.failure();
   const LineColumn at = LineColumnAt(text, failure.offset);
-  return Status(failure.code, std::string(name) + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) +
-                                  ": " + failure.message);
+  return Status(failure.code, std::string(name) + ":" + std::to_string(at.line) + ":" +
+                                  std::to_string(at.column) + ": " + failure.message);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -478,8 +490,8 @@ const std::vector<std::string_view>& SupportedKeywords() {
       "dependentRequired", "minProperties", "maxProperties", "prefixItems", "items", "minItems", "maxItems",
       "uniqueItems", "minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "multipleOf", "minLength",
       "maxLength", "pattern", "allOf", "anyOf", "oneOf", "not", "if", "then", "else", "$ref", "$defs",
-      "$schema", "$id", "title", "description", "default", "examples", "$comment", "deprecated", "readOnly",
-      "writeOnly"};
+      "$schema", "$id", "title", "description", "default", "examples", "$comment", "deprecated",
+      "readOnly", "writeOnly"};
   return kKeywords;
 }
 
@@ -516,7 +528,7 @@ uint8_t InstanceTypeBits(const json& value) {
 const std::vector<std::pair<std::string_view, uint8_t>>& TypeNames() {
   using namespace internal;
   static const std::vector<std::pair<std::string_view, uint8_t>> kNames = {
-      {"null", kNullBit},     {"boolean", kBooleanBit}, {"object", kObjectBit},   {"array", kArrayBit},
+      {"null", kNullBit},     {"boolean", kBooleanBit}, {"object", kObjectBit},  {"array", kArrayBit},
       {"number", kNumberBit}, {"string", kStringBit},   {"integer", kIntegerBit}};
   return kNames;
 }
@@ -635,16 +647,19 @@ class Compiler {
 
   Result<std::vector<int>> SubschemaArray(const json& value, const std::string& pointer, int depth,
                                           std::string_view keyword) {
-    if (!value.is_array() || value.empty()) return Error(pointer, std::string(keyword) + " must be a non-empty array of schemas");
+    if (!value.is_array() || value.empty())
+      return Error(pointer, std::string(keyword) + " must be a non-empty array of schemas");
     std::vector<int> indices;
     for (size_t i = 0; i < value.size(); ++i) {
-      SOLID_ASSIGN_OR_RETURN(const int index, Subschema(value[i], ChildPointer(pointer, std::to_string(i)), depth));
+      SOLID_ASSIGN_OR_RETURN(const int index,
+                             Subschema(value[i], ChildPointer(pointer, std::to_string(i)), depth));
       indices.push_back(index);
     }
     return indices;
   }
 
-  Result<uint64_t> NonNegativeInteger(const json& value, const std::string& pointer, std::string_view keyword) const {
+  Result<uint64_t> NonNegativeInteger(const json& value, const std::string& pointer,
+                                      std::string_view keyword) const {
     if (value.is_number_unsigned()) return value.get<uint64_t>();
     if (value.is_number() && IsIntegral(value) && NumberValue(value) >= 0) {
       // A float such as 1e30 is a valid bound that no count can reach.
@@ -661,7 +676,8 @@ class Compiler {
       for (const json& element : value) {
         if (!element.is_string()) break;
         if (std::find(strings.begin(), strings.end(), element.get<std::string>()) != strings.end()) {
-          return Error(pointer, std::string(keyword) + " lists " + Quoted(element.get<std::string>()) + " twice");
+          return Error(pointer,
+                       std::string(keyword) + " lists " + Quoted(element.get<std::string>()) + " twice");
         }
         strings.push_back(element.get<std::string>());
       }
@@ -674,7 +690,8 @@ class Compiler {
     try {
       return Pattern{source, std::regex(source, std::regex::ECMAScript)};
     } catch (const std::regex_error& error) {
-      return Error(pointer, "invalid or unsupported regular expression " + Quoted(source) + ": " + error.what());
+      return Error(pointer,
+                   "invalid or unsupported regular expression " + Quoted(source) + ": " + error.what());
     }
   }
 
@@ -687,7 +704,8 @@ class Compiler {
       if (!is_root) return Error(at, "$schema is only supported at the root (no embedded schema resources)");
       if (!value.is_string() || (value.get<std::string>() != kDraft202012 &&
                                  value.get<std::string>() != std::string(kDraft202012) + "#")) {
-        return Error(at, "only draft 2020-12 (" + std::string(kDraft202012) + ") is supported, not " + Describe(value));
+        return Error(at, "only draft 2020-12 (" + std::string(kDraft202012) + ") is supported, not " +
+                             Describe(value));
       }
       return Status::Ok();
     }
@@ -706,7 +724,8 @@ class Compiler {
       }
       for (const std::string& name : names) {
         const auto& known = TypeNames();
-        const auto it = std::find_if(known.begin(), known.end(), [&](const auto& entry) { return entry.first == name; });
+        const auto it =
+            std::find_if(known.begin(), known.end(), [&](const auto& entry) { return entry.first == name; });
         if (it == known.end()) return Error(at, "unknown type " + Quoted(name));
         node.allowed_types |= it->second;
       }
@@ -743,7 +762,8 @@ class Compiler {
       return Status::Ok();
     }
     if (keyword == "dependentRequired") {
-      if (!value.is_object()) return Error(at, "dependentRequired must be an object whose values are arrays of strings");
+      if (!value.is_object())
+        return Error(at, "dependentRequired must be an object whose values are arrays of strings");
       for (const auto& [name, dependencies] : value.items()) {
         SOLID_ASSIGN_OR_RETURN(auto names, UniqueStrings(dependencies, ChildPointer(at, name), keyword));
         node.dependent_required.emplace_back(name, std::move(names));
@@ -784,7 +804,8 @@ class Compiler {
     for (const auto& [name, member] : kBounds) {
       if (keyword != name) continue;
       if (!value.is_number()) return Error(at, keyword + " must be a number");
-      if (keyword == "multipleOf" && !(NumberValue(value) > 0)) return Error(at, "multipleOf must be greater than 0");
+      if (keyword == "multipleOf" && !(NumberValue(value) > 0))
+        return Error(at, "multipleOf must be greater than 0");
       node.*member = value;
       return Status::Ok();
     }
@@ -800,8 +821,10 @@ class Compiler {
       SOLID_ASSIGN_OR_RETURN(node.*member, SubschemaArray(value, at, depth, keyword));
       return Status::Ok();
     }
-    const std::pair<std::string_view, int Node::*> kSingles[] = {
-        {"not", &Node::not_schema}, {"if", &Node::if_schema}, {"then", &Node::then_schema}, {"else", &Node::else_schema}};
+    const std::pair<std::string_view, int Node::*> kSingles[] = {{"not", &Node::not_schema},
+                                                                 {"if", &Node::if_schema},
+                                                                 {"then", &Node::then_schema},
+                                                                 {"else", &Node::else_schema}};
     for (const auto& [name, member] : kSingles) {
       if (keyword != name) continue;
       SOLID_ASSIGN_OR_RETURN(node.*member, Subschema(value, at, depth));
@@ -812,14 +835,17 @@ class Compiler {
       std::optional<std::string> target;
       if (reference.starts_with("#")) target = PercentDecoded(std::string_view(reference).substr(1));
       if (!target || !(target->empty() || target->starts_with("/"))) {
-        return Error(at, "only a $ref to a JSON Pointer within this schema (\"#\", \"#/$defs/name\") is supported, not " +
-                             Describe(value));
+        return Error(
+            at,
+            "only a $ref to a JSON Pointer within this schema (\"#\", \"#/$defs/name\") is supported, not " +
+                Describe(value));
       }
       // Resolved once every subschema is compiled, so that reference chains do not recurse.
       unresolved_refs_.push_back({node_index, std::move(*target), at});
       return Status::Ok();
     }
-    return Error(at, "unsupported keyword " + Quoted(keyword) + DidYouMean(ClosestName(keyword, SupportedKeywords())));
+    return Error(
+        at, "unsupported keyword " + Quoted(keyword) + DidYouMean(ClosestName(keyword, SupportedKeywords())));
   }
 
   Status ResolveRefs() {
@@ -827,7 +853,8 @@ class Compiler {
       const UnresolvedRef ref = std::move(unresolved_refs_.back());
       unresolved_refs_.pop_back();
       const json* target = Resolve(root_, ref.target);
-      if (target == nullptr) return Error(ref.at, "$ref \"#" + ref.target + "\" names nothing in this schema");
+      if (target == nullptr)
+        return Error(ref.at, "$ref \"#" + ref.target + "\" names nothing in this schema");
       SOLID_ASSIGN_OR_RETURN(const int index, CompileAt(*target, ref.target, 0));
       nodes_[static_cast<size_t>(ref.from)].ref = index;
     }
@@ -872,9 +899,10 @@ class Compiler {
         }
         const int next = out[frame.next_edge++];
         if (visits[static_cast<size_t>(next)] == Visit::kOnPath) {
-          return Error(pointers_[static_cast<size_t>(next)],
-                       "schema applies itself to the same value endlessly (a $ref cycle that never descends into "
-                       "a property or item)");
+          return Error(
+              pointers_[static_cast<size_t>(next)],
+              "schema applies itself to the same value endlessly (a $ref cycle that never descends into "
+              "a property or item)");
         }
         if (visits[static_cast<size_t>(next)] == Visit::kNew) {
           visits[static_cast<size_t>(next)] = Visit::kOnPath;
@@ -904,7 +932,8 @@ class Compiler {
 
 enum class PatternMatch : uint8_t { kMatch, kNoMatch, kSubjectTooLong };
 
-PatternMatch Search(const Pattern& pattern, const std::string& subject) {
+// Out of line: the regex matcher's locals must not join the frames of the recursive validator.
+[[gnu::noinline]] PatternMatch Search(const Pattern& pattern, const std::string& subject) {
   if (subject.size() > Schema::kMaxPatternSubjectBytes) return PatternMatch::kSubjectTooLong;
   return std::regex_search(subject, pattern.regex) ? PatternMatch::kMatch : PatternMatch::kNoMatch;
 }
@@ -919,6 +948,10 @@ std::string Plural(uint64_t count, std::string_view noun) {
   return std::to_string(count) + " " + std::string(noun) + (count == 1 ? "" : "s");
 }
 
+// Apply recurses once per level of the instance and once per applicator ($ref, allOf, ...),
+// so what is on that path must use little stack: the keyword checks and message building,
+// which do not recurse, are kept out of line so that their locals are not part of every level's
+// frame (with sanitizers a frame with everything inlined took 8 KiB).
 class Validator {
  public:
   explicit Validator(const CompiledSchema& schema) : nodes_(schema.nodes) {}
@@ -927,20 +960,18 @@ class Validator {
   void Apply(int index, const json& instance, std::vector<Violation>& out) {
     if (out.size() >= limit_) return;
     if (depth_ >= kMaxValidationDepth) {
-      Add(out, "nesting is deeper than the " + std::to_string(kMaxValidationDepth) + " levels validation allows");
+      ReportTooDeep(out);
       return;
     }
     ++depth_;
     const Node& node = nodes_[static_cast<size_t>(index)];
     if (node.rejects_everything) {
-      Add(out, "no value is allowed here (the schema is false)");
+      ReportRejected(out);
     } else {
-      ApplyGeneric(node, instance, out);
-      if (instance.is_number()) ApplyNumber(node, instance, out);
-      if (instance.is_string()) ApplyString(node, instance.get_ref<const std::string&>(), out);
-      if (instance.is_array()) ApplyArray(node, instance, out);
-      if (instance.is_object()) ApplyObject(node, instance, out);
-      ApplyCombinations(node, instance, out);
+      CheckValue(node, instance, out);
+      if (instance.is_array()) ApplyItems(node, instance, out);
+      if (instance.is_object()) ApplyProperties(node, instance, out);
+      ApplyApplicators(node, instance, out);
     }
     --depth_;
   }
@@ -950,6 +981,12 @@ class Validator {
     if (out.size() < limit_) out.push_back({pointer_, std::move(message)});
   }
 
+  void AddAtChild(std::vector<Violation>& out, std::string_view token, std::string message) {
+    const size_t length = pointer_.size();
+    AppendPointerToken(pointer_, token);
+    Add(out, std::move(message));
+    pointer_.resize(length);
+  }
 
   // Applies a subschema to a child value, with the pointer extended by `token`.
   void ApplyToChild(int index, const json& child, std::string_view token, std::vector<Violation>& out) {
@@ -970,7 +1007,88 @@ class Validator {
     return std::move(violations.front());
   }
 
-  void ApplyGeneric(const Node& node, const json& instance, std::vector<Violation>& out) {
+  void ApplyItems(const Node& node, const json& instance, std::vector<Violation>& out) {
+    const size_t size = instance.size();
+    const size_t prefix = std::min(size, node.prefix_items.size());
+    for (size_t i = 0; i < prefix; ++i)
+      ApplyToChild(node.prefix_items[i], instance[i], std::to_string(i), out);
+    if (node.items == kNoSchema) return;
+    const bool items_forbidden = nodes_[static_cast<size_t>(node.items)].rejects_everything;
+    for (size_t i = prefix; i < size && out.size() < limit_; ++i) {
+      if (items_forbidden) {
+        ReportUnexpectedItem(out, i, node.prefix_items.size());
+      } else {
+        ApplyToChild(node.items, instance[i], std::to_string(i), out);
+      }
+    }
+  }
+
+  void ApplyProperties(const Node& node, const json& instance, std::vector<Violation>& out) {
+    // The map itself rather than items(), whose iteration proxies carry strings of their own.
+    for (const auto& [name, value] : instance.get_ref<const json::object_t&>()) {
+      if (out.size() >= limit_) return;
+      bool evaluated = false;
+      if (const auto it = node.properties.find(name); it != node.properties.end()) {
+        evaluated = true;
+        ApplyToChild(it->second, value, name, out);
+      }
+      for (const auto& [pattern, index] : node.pattern_properties) {
+        switch (Search(pattern, name)) {
+          case PatternMatch::kMatch:
+            evaluated = true;
+            ApplyToChild(index, value, name, out);
+            break;
+          case PatternMatch::kNoMatch: break;
+          case PatternMatch::kSubjectTooLong: ReportKeyTooLongForPattern(out, name, pattern); break;
+        }
+      }
+      if (evaluated || node.additional_properties == kNoSchema) continue;
+      if (nodes_[static_cast<size_t>(node.additional_properties)].rejects_everything) {
+        ReportUnknownKey(out, node, name);
+      } else {
+        ApplyToChild(node.additional_properties, value, name, out);
+      }
+    }
+  }
+
+  void ApplyApplicators(const Node& node, const json& instance, std::vector<Violation>& out) {
+    if (node.ref != kNoSchema) Apply(node.ref, instance, out);
+    for (int index : node.all_of) Apply(index, instance, out);
+    if (!node.any_of.empty()) ApplyAnyOf(node, instance, out);
+    if (!node.one_of.empty()) ApplyOneOf(node, instance, out);
+    if (node.not_schema != kNoSchema && !FirstViolation(node.not_schema, instance)) ReportMatchesNot(out);
+    if (node.if_schema != kNoSchema) {
+      const int branch = FirstViolation(node.if_schema, instance) ? node.else_schema : node.then_schema;
+      if (branch != kNoSchema) Apply(branch, instance, out);
+    }
+  }
+
+  [[gnu::noinline]] void ApplyAnyOf(const Node& node, const json& instance, std::vector<Violation>& out) {
+    std::vector<std::optional<Violation>> failures;
+    for (int index : node.any_of) {
+      failures.push_back(FirstViolation(index, instance));
+      if (!failures.back()) return;
+    }
+    ReportNoAlternative(out, "anyOf", failures);
+  }
+
+  [[gnu::noinline]] void ApplyOneOf(const Node& node, const json& instance, std::vector<Violation>& out) {
+    std::vector<std::optional<Violation>> failures;
+    std::optional<size_t> first_match;
+    for (size_t i = 0; i < node.one_of.size(); ++i) {
+      failures.push_back(FirstViolation(node.one_of[i], instance));
+      if (failures.back()) continue;
+      if (first_match) {
+        ReportSeveralAlternatives(out, *first_match, i);
+        return;
+      }
+      first_match = i;
+    }
+    if (!first_match) ReportNoAlternative(out, "oneOf", failures);
+  }
+
+  // The keywords that look at the value itself, not into its items or properties.
+  [[gnu::noinline]] void CheckValue(const Node& node, const json& instance, std::vector<Violation>& out) {
     if (node.allowed_types != 0 && (node.allowed_types & InstanceTypeBits(instance)) == 0) {
       Add(out, "expected " + DescribeTypes(node.allowed_types) + ", got " + std::string(TypeName(instance)));
     }
@@ -987,9 +1105,13 @@ class Validator {
       if (node.enum_values->size() > kMaxListed) allowed += ", ...";
       Add(out, Describe(instance) + " is not one of " + allowed);
     }
+    if (instance.is_number()) CheckNumber(node, instance, out);
+    if (instance.is_string()) CheckString(node, instance.get_ref<const std::string&>(), out);
+    if (instance.is_array()) CheckArray(node, instance, out);
+    if (instance.is_object()) CheckObject(node, instance, out);
   }
 
-  void ApplyNumber(const Node& node, const json& instance, std::vector<Violation>& out) {
+  void CheckNumber(const Node& node, const json& instance, std::vector<Violation>& out) {
     const long double x = NumberValue(instance);
     const std::string shown = Describe(instance);
     if (node.minimum && x < NumberValue(*node.minimum)) {
@@ -1021,26 +1143,30 @@ class Validator {
     return std::abs(quotient - std::round(quotient)) <= 1e-9 * std::max(1.0, std::abs(quotient));
   }
 
-  void ApplyString(const Node& node, const std::string& instance, std::vector<Violation>& out) {
+  void CheckString(const Node& node, const std::string& instance, std::vector<Violation>& out) {
     if (node.min_length || node.max_length) {
       const size_t length = CountCodePoints(instance);
       if (node.min_length && length < *node.min_length) {
-        Add(out, "expected at least " + Plural(*node.min_length, "character") + ", got " + std::to_string(length));
+        Add(out,
+            "expected at least " + Plural(*node.min_length, "character") + ", got " + std::to_string(length));
       }
       if (node.max_length && length > *node.max_length) {
-        Add(out, "expected at most " + Plural(*node.max_length, "character") + ", got " + std::to_string(length));
+        Add(out,
+            "expected at most " + Plural(*node.max_length, "character") + ", got " + std::to_string(length));
       }
     }
     if (node.pattern) {
       switch (Search(*node.pattern, instance)) {
         case PatternMatch::kMatch: break;
         case PatternMatch::kNoMatch: Add(out, "does not match pattern " + node.pattern->source); break;
-        case PatternMatch::kSubjectTooLong: Add(out, TooLongForPattern("string", instance, *node.pattern)); break;
+        case PatternMatch::kSubjectTooLong:
+          Add(out, TooLongForPattern("string", instance, *node.pattern));
+          break;
       }
     }
   }
 
-  void ApplyArray(const Node& node, const json& instance, std::vector<Violation>& out) {
+  void CheckArray(const Node& node, const json& instance, std::vector<Violation>& out) {
     const size_t size = instance.size();
     if (node.min_items && size < *node.min_items) {
       Add(out, "expected at least " + Plural(*node.min_items, "item") + ", got " + std::to_string(size));
@@ -1053,7 +1179,8 @@ class Validator {
       // both treat 1 and 1.0 as the same number, as JSON Schema requires.
       std::vector<size_t> order(size);
       std::iota(order.begin(), order.end(), size_t{0});
-      std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return instance[a] < instance[b]; });
+      std::stable_sort(order.begin(), order.end(),
+                       [&](size_t a, size_t b) { return instance[a] < instance[b]; });
       for (size_t i = 1; i < size; ++i) {
         if (instance[order[i - 1]] == instance[order[i]]) {
           Add(out, "items " + std::to_string(order[i - 1]) + " and " + std::to_string(order[i]) +
@@ -1062,23 +1189,9 @@ class Validator {
         }
       }
     }
-    const size_t prefix = std::min(size, node.prefix_items.size());
-    for (size_t i = 0; i < prefix; ++i) ApplyToChild(node.prefix_items[i], instance[i], std::to_string(i), out);
-    if (node.items == kNoSchema) return;
-    const bool items_forbidden = nodes_[static_cast<size_t>(node.items)].rejects_everything;
-    for (size_t i = prefix; i < size && out.size() < limit_; ++i) {
-      if (items_forbidden) {
-        const size_t length = pointer_.size();
-        AppendPointerToken(pointer_, std::to_string(i));
-        Add(out, "unexpected item: expected at most " + Plural(node.prefix_items.size(), "item"));
-        pointer_.resize(length);
-      } else {
-        ApplyToChild(node.items, instance[i], std::to_string(i), out);
-      }
-    }
   }
 
-  void ApplyObject(const Node& node, const json& instance, std::vector<Violation>& out) {
+  void CheckObject(const Node& node, const json& instance, std::vector<Violation>& out) {
     const size_t size = instance.size();
     if (node.min_properties && size < *node.min_properties) {
       Add(out, "expected at least " + Plural(*node.min_properties, "key") + ", got " + std::to_string(size));
@@ -1097,87 +1210,54 @@ class Validator {
         }
       }
     }
-    for (const auto& [name, value] : instance.items()) {
-      if (out.size() >= limit_) return;
-      bool evaluated = false;
-      if (const auto it = node.properties.find(name); it != node.properties.end()) {
-        evaluated = true;
-        ApplyToChild(it->second, value, name, out);
-      }
-      for (const auto& [pattern, index] : node.pattern_properties) {
-        switch (Search(pattern, name)) {
-          case PatternMatch::kMatch:
-            evaluated = true;
-            ApplyToChild(index, value, name, out);
-            break;
-          case PatternMatch::kNoMatch: break;
-          case PatternMatch::kSubjectTooLong: AddAtChild(out, name, TooLongForPattern("key", name, pattern)); break;
-        }
-      }
-      if (evaluated || node.additional_properties == kNoSchema) continue;
-      if (nodes_[static_cast<size_t>(node.additional_properties)].rejects_everything) {
-        std::vector<std::string_view> known;
-        for (const auto& property : node.properties) known.push_back(property.first);
-        AddAtChild(out, name, "unknown key " + Quoted(name) + DidYouMean(ClosestName(name, known)));
-      } else {
-        ApplyToChild(node.additional_properties, value, name, out);
-      }
-    }
   }
 
-  void AddAtChild(std::vector<Violation>& out, std::string_view token, std::string message) {
-    const size_t length = pointer_.size();
-    AppendPointerToken(pointer_, token);
-    Add(out, std::move(message));
-    pointer_.resize(length);
+  [[gnu::noinline]] void ReportTooDeep(std::vector<Violation>& out) {
+    Add(out,
+        "nesting is deeper than the " + std::to_string(kMaxValidationDepth) + " levels validation allows");
   }
 
-  void ApplyCombinations(const Node& node, const json& instance, std::vector<Violation>& out) {
-    if (node.ref != kNoSchema) Apply(node.ref, instance, out);
-    for (int index : node.all_of) Apply(index, instance, out);
-    if (!node.any_of.empty()) {
-      std::vector<std::optional<Violation>> failures;
-      for (int index : node.any_of) {
-        failures.push_back(FirstViolation(index, instance));
-        if (!failures.back()) break;
-      }
-      if (failures.back()) Add(out, "matches none of the anyOf alternatives: " + Explain(failures));
-    }
-    if (!node.one_of.empty()) {
-      std::vector<std::optional<Violation>> failures;
-      std::vector<size_t> matches;
-      for (size_t i = 0; i < node.one_of.size(); ++i) {
-        failures.push_back(FirstViolation(node.one_of[i], instance));
-        if (!failures.back()) matches.push_back(i);
-        if (matches.size() == 2) break;
-      }
-      if (matches.empty()) {
-        Add(out, "matches none of the oneOf alternatives: " + Explain(failures));
-      } else if (matches.size() > 1) {
-        Add(out, "matches oneOf alternatives " + std::to_string(matches[0]) + " and " + std::to_string(matches[1]) +
-                     ", but must match exactly one");
-      }
-    }
-    if (node.not_schema != kNoSchema && !FirstViolation(node.not_schema, instance)) {
-      Add(out, "matches the schema under \"not\"");
-    }
-    if (node.if_schema != kNoSchema) {
-      const int branch = FirstViolation(node.if_schema, instance) ? node.else_schema : node.then_schema;
-      if (branch != kNoSchema) Apply(branch, instance, out);
-    }
+  [[gnu::noinline]] void ReportRejected(std::vector<Violation>& out) {
+    Add(out, "no value is allowed here (the schema is false)");
   }
 
-  // "[0] expected string, got integer; [1] /a: missing required key \"b\""
-  std::string Explain(const std::vector<std::optional<Violation>>& failures) const {
-    std::string explanation;
+  [[gnu::noinline]] void ReportUnexpectedItem(std::vector<Violation>& out, size_t index, size_t allowed) {
+    AddAtChild(out, std::to_string(index), "unexpected item: expected at most " + Plural(allowed, "item"));
+  }
+
+  [[gnu::noinline]] void ReportKeyTooLongForPattern(std::vector<Violation>& out, const std::string& name,
+                                                    const Pattern& pattern) {
+    AddAtChild(out, name, TooLongForPattern("key", name, pattern));
+  }
+
+  [[gnu::noinline]] void ReportUnknownKey(std::vector<Violation>& out, const Node& node,
+                                          const std::string& name) {
+    std::vector<std::string_view> known;
+    for (const auto& property : node.properties) known.push_back(property.first);
+    AddAtChild(out, name, "unknown key " + Quoted(name) + DidYouMean(ClosestName(name, known)));
+  }
+
+  [[gnu::noinline]] void ReportMatchesNot(std::vector<Violation>& out) {
+    Add(out, "matches the schema under \"not\"");
+  }
+
+  [[gnu::noinline]] void ReportSeveralAlternatives(std::vector<Violation>& out, size_t first, size_t second) {
+    Add(out, "matches oneOf alternatives " + std::to_string(first) + " and " + std::to_string(second) +
+                 ", but must match exactly one");
+  }
+
+  // "matches none of the anyOf alternatives: [0] expected string, got integer; [1] /a: ..."
+  [[gnu::noinline]] void ReportNoAlternative(std::vector<Violation>& out, std::string_view keyword,
+                                             const std::vector<std::optional<Violation>>& failures) {
+    std::string message = "matches none of the " + std::string(keyword) + " alternatives: ";
     for (size_t i = 0; i < failures.size(); ++i) {
-      if (i > 0) explanation += "; ";
-      explanation += "[" + std::to_string(i) + "] ";
+      if (i > 0) message += "; ";
+      message += "[" + std::to_string(i) + "] ";
       const Violation& failure = *failures[i];
-      if (failure.pointer != pointer_) explanation += failure.pointer + ": ";
-      explanation += failure.message;
+      if (failure.pointer != pointer_) message += failure.pointer + ": ";
+      message += failure.message;
     }
-    return explanation;
+    Add(out, std::move(message));
   }
 
   const std::vector<Node>& nodes_;
@@ -1201,12 +1281,14 @@ std::vector<Violation> Schema::Validate(const json& instance) const {
   std::vector<Violation> violations;
   Validator(*compiled_).Apply(0, instance, violations);
   if (violations.size() >= kMaxViolations) {
-    violations.push_back({"", "stopped after " + std::to_string(kMaxViolations) + " violations; there may be more"});
+    violations.push_back(
+        {"", "stopped after " + std::to_string(kMaxViolations) + " violations; there may be more"});
   }
   return violations;
 }
 
-Status Schema::Check(const json& instance, std::string_view instance_name, std::string_view instance_text) const {
+Status Schema::Check(const json& instance, std::string_view instance_name,
+                     std::string_view instance_text) const {
   const std::vector<Violation> violations = Validate(instance);
   if (violations.empty()) return Status::Ok();
   const size_t reported = std::min(violations.size(), kMaxReportedViolations);
@@ -1223,8 +1305,8 @@ Status Schema::Check(const json& instance, std::string_view instance_name, std::
     message += ": " + violations[i].message;
   }
   if (violations.size() > reported) {
-    message += "\n" + std::string(instance_name) + ": ... and " + std::to_string(violations.size() - reported) +
-               " more violations";
+    message += "\n" + std::string(instance_name) + ": ... and " +
+               std::to_string(violations.size() - reported) + " more violations";
   }
   return ParseError(std::move(message));
 }

@@ -103,15 +103,20 @@ class Checker {
     }
   }
 
-  void CheckImageBytes(const std::string& where, const ImageRecord& im) {
-    if (!options_.decode_images) return;
-    Result<Image8> decoded = DecodeImage(im.image, im.format);
+  void CheckDecodesTo(const std::string& where, std::span<const uint8_t> bytes, ImageFormat format, uint32_t width,
+                      uint32_t height) {
+    Result<Image8> decoded = DecodeImage(bytes, format);
     if (!decoded.ok()) {
       Problem(where + ": image", decoded.status().message());
-    } else if (decoded->width != im.width || decoded->height != im.height) {
-      Problem(where + ": image", fmt::format("decodes to {}x{}, stored size {}x{}", decoded->width, decoded->height,
-                                             im.width, im.height));
+    } else if (decoded->width != width || decoded->height != height) {
+      Problem(where + ": image",
+              fmt::format("decodes to {}x{}, stored size {}x{}", decoded->width, decoded->height, width, height));
     }
+  }
+
+  void CheckImageBytes(const std::string& where, const ImageRecord& im) {
+    if (!options_.decode_images) return;
+    CheckDecodesTo(where, im.image, im.format, im.width, im.height);
     if (im.depth_exr) {
       Result<DepthImage> depth = DecodeDepthExr(*im.depth_exr);
       if (!depth.ok()) {
@@ -217,15 +222,7 @@ class Checker {
           Problem(vwhere + ": box", fmt::format("[{}, {}, {}, {}] exceeds the {}x{} crop", v.box.x, v.box.y, v.box.w,
                                                 v.box.h, v.width, v.height));
         }
-        if (options_.decode_images) {
-          Result<Image8> decoded = DecodeImage(v.image, v.format);
-          if (!decoded.ok()) {
-            Problem(vwhere + ": image", decoded.status().message());
-          } else if (decoded->width != v.width || decoded->height != v.height) {
-            Problem(vwhere + ": image", fmt::format("decodes to {}x{}, stored size {}x{}", decoded->width,
-                                                    decoded->height, v.width, v.height));
-          }
-        }
+        if (options_.decode_images) CheckDecodesTo(vwhere, v.image, v.format, v.width, v.height);
       }
     }
     return with_views;
