@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -162,14 +163,16 @@ Result<FileDigest> DigestFile(const std::filesystem::path& path) {
   if (fd.get() < 0) return ErrnoStatus("open", path, errno);
   std::unique_ptr<XXH64_state_t, decltype(&XXH64_freeState)> state(XXH64_createState(), XXH64_freeState);
   XXH64_reset(state.get(), 0);
-  std::vector<uint8_t> buf(1 << 20);
+  // Uninitialized on purpose: zeroing a buffer that read() overwrites costs more than the hash.
+  constexpr size_t kChunk = 256 << 10;
+  auto buf = std::make_unique_for_overwrite<uint8_t[]>(kChunk);
   FileDigest digest;
   for (;;) {
-    ssize_t n = ::read(fd.get(), buf.data(), buf.size());
+    ssize_t n = ::read(fd.get(), buf.get(), kChunk);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) return ErrnoStatus("read", path, errno);
     if (n == 0) break;
-    XXH64_update(state.get(), buf.data(), static_cast<size_t>(n));
+    XXH64_update(state.get(), buf.get(), static_cast<size_t>(n));
     digest.bytes += static_cast<uint64_t>(n);
   }
   digest.xxh64 = XXH64_digest(state.get());
