@@ -15,6 +15,8 @@
 #include <regex>
 #include <unordered_map>
 #include <utility>
+
+#include <fmt/format.h>
 #pragma GCC diagnostic pop
 
 namespace solid::json {
@@ -1252,7 +1254,7 @@ class Validator {
     std::string message = "matches none of the " + std::string(keyword) + " alternatives: ";
     for (size_t i = 0; i < failures.size(); ++i) {
       if (i > 0) message += "; ";
-      message += "[" + std::to_string(i) + "] ";
+      message += fmt::format("[{}] ", i);
       const Violation& failure = *failures[i];
       if (failure.pointer != pointer_) message += failure.pointer + ": ";
       message += failure.message;
