@@ -16,6 +16,7 @@ using Command = std::function<int()>;
 Command AddInspect(CLI::App& app);
 Command AddValidate(CLI::App& app);
 Command AddIndex(CLI::App& app);
+Command AddConvert(CLI::App& app);
 
 // Prints "solid: <message>" on stderr and returns the exit code for the status.
 int Fail(const Status& status);

@@ -6,7 +6,7 @@
 #include <map>
 #include <mutex>
 
-#include "file_util.h"
+#include "solid/formats/files.h"
 #include "solid/formats/checksum.h"
 #include "solid/formats/json_schema.h"
 #include "solid/formats/schemas.h"

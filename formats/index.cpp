@@ -6,7 +6,7 @@
 #include <map>
 #include <optional>
 
-#include "file_util.h"
+#include "solid/formats/files.h"
 #include "solid/formats/checksum.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/shard.h"

@@ -4,6 +4,8 @@
 
 #include <system_error>
 
+#include "solid/formats/catalog.h"
+#include "solid/formats/checksum.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/metrics.h"
 #include "solid/formats/shard.h"
@@ -68,6 +70,50 @@ std::string Est(const json& e, double scale, std::string_view unit) {
                      unit);
 }
 
+Result<json> InspectAssets(const fs::path& root) {
+  SOLID_ASSIGN_OR_RETURN(Catalog catalog, Catalog::OpenReadOnly(root / "catalog.sqlite"));
+  SOLID_ASSIGN_OR_RETURN(std::vector<CatalogEntry> entries, catalog.All());
+  SOLID_ASSIGN_OR_RETURN(uint64_t content_hash, catalog.ContentHash());
+  json by_source = json::object(), failure_codes = json::object(), warning_codes = json::object();
+  json failures = json::array();
+  int64_t bytes_in = 0, bytes_out = 0, triangles = 0, models = 0, rooms = 0;
+  for (const CatalogEntry& e : entries) {
+    json& src = by_source[e.source];
+    std::string status(AssetStatusName(e.status));
+    src[status] = src.value(status, 0) + 1;
+    (e.kind == "room" ? rooms : models) += 1;
+    for (const json& w : e.warnings) {
+      if (w.is_object() && w.contains("code") && w["code"].is_string()) {
+        std::string code = w["code"].get<std::string>();
+        warning_codes[code] = warning_codes.value(code, 0) + 1;
+      }
+    }
+    if (e.status == AssetStatus::kFailed) {
+      std::string code = e.error_code.value_or("unknown");
+      failure_codes[code] = failure_codes.value(code, 0) + 1;
+      failures.push_back({{"key", e.key}, {"code", code}, {"error", e.error.value_or("")}});
+      continue;
+    }
+    bytes_in += e.bytes_in;
+    bytes_out += e.bytes_out;
+    triangles += e.triangles;
+  }
+  return json{{"kind", "assets"},
+              {"path", root.string()},
+              {"assets", entries.size()},
+              {"models", models},
+              {"rooms", rooms},
+              {"by_source", by_source},
+              {"failure_codes", failure_codes},
+              {"warning_codes", warning_codes},
+              {"failures", failures},
+              {"bytes_in", bytes_in},
+              {"bytes_out", bytes_out},
+              {"triangles", triangles},
+              {"compression_ratio", bytes_out > 0 ? static_cast<double>(bytes_in) / static_cast<double>(bytes_out) : 0.0},
+              {"catalog_hash", Hex64(content_hash)}};
+}
+
 }  // namespace
 
 Result<json> Inspect(const fs::path& path) {
@@ -84,7 +130,10 @@ Result<json> Inspect(const fs::path& path) {
     t["metrics"] = metrics.Finish().ToJson();
     return t;
   }
-  if (!fs::is_directory(path, ec)) return NotFoundError(path.string() + ": no such dataset or shard");
+  if (!fs::is_directory(path, ec)) return NotFoundError(path.string() + ": no such dataset, assets directory or shard");
+  if (fs::exists(path / "catalog.sqlite", ec) && !fs::exists(DatasetPaths(path).manifest(), ec)) {
+    return InspectAssets(path);
+  }
   SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(path));
   SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(path));
   MetricsAccumulator metrics;
@@ -150,6 +199,32 @@ std::string FormatInspection(const json& j) {
                                                Est(m["scale"]["medium"], 100, "%"), Est(m["scale"]["large"], 100, "%")));
   };
   std::string kind = j.value("kind", "");
+  if (kind == "assets") {
+    out += fmt::format("assets {}\n", j["path"].get<std::string>());
+    line("assets", fmt::format("{} ({} models, {} rooms)", j["assets"].get<int64_t>(), j["models"].get<int64_t>(),
+                               j["rooms"].get<int64_t>()));
+    for (const auto& [source, counts] : j["by_source"].items()) {
+      std::string text;
+      for (const auto& [status, n] : counts.items()) text += fmt::format("{}{} {}", text.empty() ? "" : ", ", n.get<int64_t>(), status);
+      line(source, text);
+    }
+    line("triangles", std::to_string(j["triangles"].get<int64_t>()));
+    line("size", fmt::format("{} in, {} out (ratio {:.1f})", Bytes(j["bytes_in"].get<int64_t>()),
+                             Bytes(j["bytes_out"].get<int64_t>()), j["compression_ratio"].get<double>()));
+    line("catalog hash", j["catalog_hash"].get<std::string>());
+    for (const auto& [code, n] : j["warning_codes"].items()) line("warning " + code, std::to_string(n.get<int64_t>()));
+    for (const auto& [code, n] : j["failure_codes"].items()) line("failed " + code, std::to_string(n.get<int64_t>()));
+    size_t shown = 0;
+    for (const json& f : j["failures"]) {
+      if (++shown > 20) {
+        out += fmt::format("  ... {} more failures (solid inspect --json)\n", j["failures"].size() - 20);
+        break;
+      }
+      out += fmt::format("  FAILED {} [{}]: {}\n", f["key"].get<std::string>(), f["code"].get<std::string>(),
+                         f["error"].get<std::string>());
+    }
+    return out;
+  }
   if (kind == "query_shard") {
     out += fmt::format("query shard {}\n", j["file"].get<std::string>());
     line("size", Bytes(j["bytes"].get<int64_t>()));

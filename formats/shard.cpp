@@ -8,7 +8,7 @@
 #include <cstring>
 #include <optional>
 
-#include "file_util.h"
+#include "solid/formats/files.h"
 #include "solid/formats/checksum.h"
 #include "solid/formats/metrics.h"
 #include "sqlite_schema.h"

@@ -11,8 +11,9 @@
 
 namespace solid {
 
-// Accepts a dataset directory, a target shard or a query shard; the JSON's "kind"
-// says which ("dataset", "target_shard", "query_shard"). Reads no image blob.
+// Accepts a dataset directory, an assets directory (catalog.sqlite), a target shard or
+// a query shard; the JSON's "kind" says which ("dataset", "assets", "target_shard",
+// "query_shard"). Reads no image blob.
 Result<nlohmann::json> Inspect(const std::filesystem::path& path);
 
 // A report readable at a glance in a terminal.

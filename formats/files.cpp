@@ -1,4 +1,4 @@
-#include "file_util.h"
+#include "solid/formats/files.h"
 
 #include <fcntl.h>
 #include <signal.h>

@@ -1,4 +1,4 @@
-// Internal: atomic publication of files (write to a temporary sibling, sync,
+// Atomic publication of files (write to a temporary sibling, sync,
 // rename) so that a reader never sees a partial file, whatever kills the writer.
 #pragma once
 

@@ -1,0 +1,637 @@
+#include "solid/convert/convert.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <regex>
+#include <set>
+#include <thread>
+
+#include "solid/convert/obj.h"
+#include "solid/convert/obj_to_asset.h"
+#include "solid/convert/procedural.h"
+#include "solid/convert/scenenet.h"
+#include "solid/formats/catalog.h"
+#include "solid/formats/checksum.h"
+#include "solid/formats/files.h"
+
+namespace solid::convert {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string_view ConverterVersion() { return "solid-convert " SOLID_VERSION; }
+
+namespace {
+
+constexpr uint64_t kMaxInputFileBytes = uint64_t{1} << 30;
+
+// A failure of one asset: the catalog's error_code and a message naming where.
+struct AssetFailure {
+  std::string code;
+  std::string message;
+};
+
+// What converting one asset produced, before it is written.
+struct Converted {
+  Asset asset;
+  std::vector<ConvertWarning> warnings;
+  json counts = json::object();
+  json extras = json::object();
+};
+
+using ConvertFn = std::function<std::variant<Converted, AssetFailure>()>;
+
+struct Job {
+  std::string key, kind, source;
+  fs::path output;                 // relative to the assets directory
+  fs::path input_root;             // inputs are recorded relative to it
+  std::vector<fs::path> inputs;    // absolute; hashed for resume
+  std::string generator_identity;  // procedural assets: what determines them, in place of input files
+  std::vector<ConvertWarning> discovery_warnings;
+  std::optional<AssetFailure> discovery_failure;
+  ConvertFn convert;
+};
+
+AssetFailure FailureFromStatus(const Status& s, std::string_view default_code) {
+  for (std::string_view code : {"index_out_of_range", "empty_geometry", "missing_obj", "suspect_units",
+                                "no_structure"}) {
+    if (s.message().find(code) != std::string::npos) return {std::string(code), s.message()};
+  }
+  if (s.code() == StatusCode::kLimitExceeded) return {"limit_exceeded", s.message()};
+  if (s.code() == StatusCode::kParseError) return {"parse_error", s.message()};
+  if (s.code() == StatusCode::kIoError) return {"read_error", s.message()};
+  return {std::string(default_code), s.message()};
+}
+
+std::vector<fs::path> SortedEntries(const fs::path& dir, bool directories) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    bool is_dir = it->is_directory(ec);
+    if (is_dir == directories) out.push_back(it->path());
+  }
+  // Byte-wise order, whatever the locale.
+  std::sort(out.begin(), out.end(), [](const fs::path& a, const fs::path& b) { return a.native() < b.native(); });
+  return out;
+}
+
+// Every regular file below dir, except what never affects conversion.
+std::vector<fs::path> ModelInputFiles(const fs::path& dir) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->is_directory(ec) && it->path().filename() == "screenshots") {
+      it.disable_recursion_pending();
+      continue;
+    }
+    if (!it->is_regular_file(ec)) continue;
+    std::string name = it->path().filename().string();
+    if (name.ends_with(".binvox")) continue;
+    out.push_back(it->path());
+  }
+  std::sort(out.begin(), out.end(), [](const fs::path& a, const fs::path& b) { return a.native() < b.native(); });
+  return out;
+}
+
+// XXH64 over (relative name, size, content hash) of every input; bytes_in is their total size.
+Result<std::pair<uint64_t, int64_t>> HashInputs(const Job& job) {
+  std::string text = job.generator_identity;
+  int64_t bytes = 0;
+  for (const fs::path& p : job.inputs) {
+    SOLID_ASSIGN_OR_RETURN(files::FileDigest d, files::DigestFile(p));
+    text += fmt::format("{}\t{}\t{}\n", fs::relative(p, job.input_root).generic_string(), d.bytes, Hex64(d.xxh64));
+    bytes += static_cast<int64_t>(d.bytes);
+  }
+  return std::make_pair(Xxh64(text), bytes);
+}
+
+Result<ObjData> ReadObjFile(const fs::path& path) {
+  SOLID_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, files::ReadFile(path, kMaxInputFileBytes));
+  return ReadObj(bytes, path.string());
+}
+
+// The MTL named by the OBJ (first that exists), else one with the OBJ's stem.
+Result<std::optional<MtlData>> ReadMtlFor(const fs::path& obj_path, const ObjData& obj, fs::path* mtl_path,
+                                          std::vector<ConvertWarning>* warnings) {
+  std::vector<fs::path> candidates;
+  for (const std::string& name : obj.mtllibs) candidates.push_back(obj_path.parent_path() / name);
+  if (obj.mtllibs.empty()) candidates.push_back(fs::path(obj_path).replace_extension(".mtl"));
+  std::error_code ec;
+  for (const fs::path& c : candidates) {
+    if (!fs::is_regular_file(c, ec)) continue;
+    SOLID_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, files::ReadFile(c, kMaxInputFileBytes));
+    SOLID_ASSIGN_OR_RETURN(MtlData mtl, ReadMtl(bytes, c.string()));
+    *mtl_path = c;
+    return std::optional<MtlData>(std::move(mtl));
+  }
+  if (!obj.mtllibs.empty()) {
+    warnings->push_back({"missing_mtl", fmt::format("{}: mtllib {} not found", obj_path.string(), obj.mtllibs[0])});
+  }
+  return std::optional<MtlData>();
+}
+
+json CountsJson(const CleanCounts& c, const ObjData& obj) {
+  return {{"triangles_in", c.triangles_in},
+          {"triangles_out", c.triangles_out},
+          {"reversed_twins", c.reversed_twins},
+          {"duplicates_removed", c.duplicates_removed},
+          {"degenerates_removed", c.degenerates_removed},
+          {"empty_blocks_dropped", c.empty_blocks_dropped},
+          {"normals_renormalized", c.normals_renormalized},
+          {"zero_normals", c.zero_normals},
+          {"normals_from_geometry", c.normals_from_geometry},
+          {"uvs_filled", c.uvs_filled},
+          {"textures_embedded", c.textures_embedded},
+          {"textures_missing", c.textures_missing},
+          {"textures_rejected", c.textures_rejected},
+          {"lines_ignored", obj.counts.line_records},
+          {"points_ignored", obj.counts.point_records},
+          {"polygons_triangulated", obj.counts.polygons_triangulated},
+          {"short_faces_dropped", obj.counts.short_faces_dropped},
+          {"unknown_records", obj.counts.unknown_records}};
+}
+
+// ShapeNet v1 frame (up +Y, front +X) to v2's (up +Y, front -Z): x' = z, z' = -x.
+void RotateV1ToV2(Asset* asset) {
+  for (Node& node : asset->nodes) {
+    for (Primitive& p : node.primitives) {
+      for (std::vector<float>* v : {&p.positions, &p.normals}) {
+        for (size_t i = 0; i + 2 < v->size(); i += 3) {
+          float x = (*v)[i], z = (*v)[i + 2];
+          (*v)[i] = z;
+          (*v)[i + 2] = -x;
+        }
+      }
+    }
+  }
+}
+
+std::variant<Converted, AssetFailure> ConvertShapeNetModel(const fs::path& model_dir, const fs::path& obj_path,
+                                                           const std::string& key, int version,
+                                                           const json& synset_info) {
+  std::error_code ec;
+  if (!fs::is_regular_file(obj_path, ec)) {
+    return AssetFailure{"missing_obj", fmt::format("{}: no {}", model_dir.string(),
+                                                   fs::relative(obj_path, model_dir).generic_string())};
+  }
+  Result<ObjData> obj = ReadObjFile(obj_path);
+  if (!obj.ok()) return FailureFromStatus(obj.status(), "parse_error");
+  Converted c;
+  fs::path mtl_path;
+  Result<std::optional<MtlData>> mtl = ReadMtlFor(obj_path, *obj, &mtl_path, &c.warnings);
+  if (!mtl.ok()) return FailureFromStatus(mtl.status(), "parse_error");
+  ObjAssetOptions options;
+  options.grouping = NodeGrouping::kSingleNode;
+  options.node_name = key;
+  options.textures = TextureMode::kEmbed;
+  options.mtl_dir = mtl_path.empty() ? obj_path.parent_path() : mtl_path.parent_path();
+  options.confine_root = model_dir;
+  options.mtl_name = mtl_path.empty() ? std::string() : mtl_path.string();
+  Result<ObjAsset> built = BuildAssetFromObj(*obj, mtl->has_value() ? &**mtl : nullptr, options);
+  if (!built.ok()) return FailureFromStatus(built.status(), "empty_geometry");
+  c.asset = std::move(built->asset);
+  c.warnings.insert(c.warnings.end(), built->warnings.begin(), built->warnings.end());
+  c.counts = CountsJson(built->counts, *obj);
+  c.extras = synset_info;
+  if (version == 1) {
+    RotateV1ToV2(&c.asset);
+    c.asset.extras["source_frame"] = "shapenet_v1: up +Y, front +X; rotated by x' = z, z' = -x";
+  } else {
+    fs::path json_path = obj_path.parent_path() / "model_normalized.json";
+    Result<std::vector<uint8_t>> bytes = files::ReadFile(json_path, 1 << 20);
+    if (bytes.ok()) {
+      json j = json::parse(bytes->begin(), bytes->end(), nullptr, false);
+      if (j.is_object() && j.contains("numVertices") && j["numVertices"].is_number_integer() &&
+          j["numVertices"].get<int64_t>() != static_cast<int64_t>(obj->positions.size())) {
+        c.warnings.push_back({"json_mismatch", fmt::format("{}: numVertices {} but the OBJ has {} v records",
+                                                           json_path.string(), j["numVertices"].get<int64_t>(),
+                                                           obj->positions.size())});
+      }
+      if (j.is_object() && j.contains("centroid") && j.contains("min") && j.contains("max") &&
+          j["min"].is_array() && j["max"].is_array() && j["min"].size() == 3 && j["max"].size() == 3) {
+        double d2 = 0;
+        for (size_t k = 0; k < 3; ++k) {
+          if (!j["min"][k].is_number() || !j["max"][k].is_number()) continue;
+          double d = j["max"][k].get<double>() - j["min"][k].get<double>();
+          d2 += d * d;
+        }
+        // v_obj = (v_src - centroid) / diagonal: enough to recover source coordinates.
+        c.asset.extras["source_centroid"] = j["centroid"];
+        c.asset.extras["source_diagonal"] = std::sqrt(d2);
+      }
+    }
+  }
+  return c;
+}
+
+// taxonomy.json in either shape: flat [{synsetId, name, children}] or a jstree of
+// {metadata: {name, label}, children}. Returns synset id -> name.
+std::map<std::string, std::string> ReadTaxonomy(const fs::path& root, bool* found) {
+  std::map<std::string, std::string> names;
+  Result<std::vector<uint8_t>> bytes = files::ReadFile(root / "taxonomy.json", 64 << 20);
+  *found = bytes.ok();
+  if (!bytes.ok()) return names;
+  json j = json::parse(bytes->begin(), bytes->end(), nullptr, false);
+  std::function<void(const json&, int)> walk = [&](const json& node, int depth) {
+    if (depth > 64) return;
+    if (node.is_array()) {
+      for (const json& n : node) walk(n, depth + 1);
+      return;
+    }
+    if (!node.is_object()) return;
+    if (node.contains("synsetId") && node["synsetId"].is_string() && node.contains("name") && node["name"].is_string()) {
+      names[node["synsetId"].get<std::string>()] = node["name"].get<std::string>();
+    }
+    if (node.contains("metadata") && node["metadata"].is_object()) {
+      const json& m = node["metadata"];
+      if (m.contains("name") && m["name"].is_string() && m.contains("label") && m["label"].is_string()) {
+        names[m["name"].get<std::string>()] = m["label"].get<std::string>();
+      }
+    }
+    if (node.contains("children") && node["children"].is_array()) {
+      for (const json& c : node["children"]) {
+        if (c.is_object() || c.is_array()) walk(c, depth + 1);
+      }
+    }
+  };
+  walk(j, 0);
+  return names;
+}
+
+bool SafePathComponent(const std::string& name) {
+  return !name.empty() && name[0] != '.' && name.find('/') == std::string::npos &&
+         name.find('\\') == std::string::npos;
+}
+
+json OptionsIdentity(const ConvertOptions& o) {
+  return {{"position_bits", o.draco.position_bits},
+          {"normal_bits", o.draco.normal_bits},
+          {"texcoord_bits", o.draco.texcoord_bits},
+          {"compression_level", o.draco.compression_level},
+          {"keep_all_room_objects", o.keep_all_room_objects}};
+}
+
+// Runs the jobs on options.jobs threads; the calling thread owns the catalog.
+Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const ConvertOptions& options) {
+  auto start = std::chrono::steady_clock::now();
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return IoError(fmt::format("{}: cannot create the output directory: {}", out.string(), ec.message()));
+  ConvertReport report;
+  report.catalog = out / "catalog.sqlite";
+  SOLID_ASSIGN_OR_RETURN(Catalog catalog, Catalog::OpenForWriting(report.catalog));
+  SOLID_ASSIGN_OR_RETURN(std::vector<CatalogEntry> existing_rows, catalog.All());
+  std::map<std::string, CatalogEntry> existing;
+  for (CatalogEntry& e : existing_rows) existing.emplace(e.key, std::move(e));
+
+  if (options.limit >= 0 && static_cast<int64_t>(jobs.size()) > options.limit) jobs.resize(static_cast<size_t>(options.limit));
+  report.assets = static_cast<int64_t>(jobs.size());
+  const uint64_t options_hash = Xxh64(OptionsIdentity(options).dump());
+  const std::string version(ConverterVersion());
+
+  struct Finished {
+    std::optional<CatalogEntry> entry;  // empty when up to date
+    ItemOutcome outcome;
+  };
+  std::mutex mu;
+  std::condition_variable cv;
+  std::deque<Finished> finished;
+  std::atomic<size_t> next{0};
+
+  auto work = [&](const Job& job) -> Finished {
+    auto t0 = std::chrono::steady_clock::now();
+    Finished f;
+    f.outcome.key = job.key;
+    CatalogEntry e;
+    e.key = job.key;
+    e.kind = job.kind;
+    e.source = job.source;
+    e.converter_version = version;
+    e.options_hash = options_hash;
+    for (const fs::path& p : job.inputs) e.input_files.push_back(fs::relative(p, job.input_root).generic_string());
+    auto elapsed = [&] { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); };
+    auto fail = [&](const AssetFailure& failure) {
+      e.status = AssetStatus::kFailed;
+      e.error_code = failure.code;
+      e.error = failure.message;
+      f.outcome.status = "failed";
+      f.outcome.error_code = failure.code;
+      f.outcome.message = failure.message;
+      f.outcome.milliseconds = elapsed();
+      f.entry = std::move(e);
+      return std::move(f);
+    };
+    Result<std::pair<uint64_t, int64_t>> hashed = HashInputs(job);
+    if (!hashed.ok()) return fail(FailureFromStatus(hashed.status(), "read_error"));
+    e.input_hash = hashed->first;
+    e.bytes_in = hashed->second;
+    if (auto it = existing.find(job.key); it != existing.end()) {
+      const CatalogEntry& old = it->second;
+      bool same = old.input_hash == e.input_hash && old.converter_version == version &&
+                  old.options_hash == options_hash;
+      bool output_intact = false;
+      if (same && old.status != AssetStatus::kFailed && old.file && old.output_xxh64) {
+        Result<files::FileDigest> d = files::DigestFile(out / *old.file);
+        output_intact = d.ok() && d->xxh64 == *old.output_xxh64;
+      }
+      if (same && (output_intact || (old.status == AssetStatus::kFailed && !options.retry_failed))) {
+        f.outcome.status = "up_to_date";
+        f.outcome.milliseconds = elapsed();
+        return f;
+      }
+    }
+    e.warnings = json::array();
+    for (const ConvertWarning& w : job.discovery_warnings) e.warnings.push_back({{"code", w.code}, {"message", w.message}});
+    if (job.discovery_failure) return fail(*job.discovery_failure);
+    std::variant<Converted, AssetFailure> result = job.convert();
+    if (auto* failure = std::get_if<AssetFailure>(&result)) return fail(*failure);
+    Converted& c = std::get<Converted>(result);
+    for (const ConvertWarning& w : c.warnings) e.warnings.push_back({{"code", w.code}, {"message", w.message}});
+    Result<std::vector<uint8_t>> glb = WriteGlb(c.asset, options.draco);
+    if (!glb.ok()) return fail({"write_error", glb.status().message()});
+    fs::path target = out / job.output;
+    std::error_code dir_ec;
+    fs::create_directories(target.parent_path(), dir_ec);
+    Status written = files::WriteFileAtomically(target, *glb);
+    if (!written.ok()) return fail({"write_error", written.message()});
+    e.file = job.output.generic_string();
+    e.output_xxh64 = Xxh64(*glb);
+    e.bytes_out = static_cast<int64_t>(glb->size());
+    e.vertices = static_cast<int64_t>(VertexCount(c.asset));
+    e.triangles = static_cast<int64_t>(TriangleCount(c.asset));
+    e.materials = static_cast<int64_t>(c.asset.materials.size());
+    e.textures = static_cast<int64_t>(c.asset.textures.size());
+    Bounds b = ComputeBounds(c.asset);
+    if (!b.empty) e.bounds = std::array<double, 6>{b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2]};
+    e.counts = std::move(c.counts);
+    e.extras = std::move(c.extras);
+    e.status = e.warnings.empty() ? AssetStatus::kOk : AssetStatus::kOkWithWarnings;
+    f.outcome.status = std::string(AssetStatusName(e.status));
+    f.outcome.milliseconds = elapsed();
+    f.entry = std::move(e);
+    return f;
+  };
+
+  int threads = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = std::max(1, std::min<int>(threads, static_cast<int>(std::max<size_t>(1, jobs.size()))));
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) {
+    pool.emplace_back([&] {
+      for (size_t i = next++; i < jobs.size(); i = next++) {
+        Finished f = work(jobs[i]);
+        std::lock_guard lock(mu);
+        finished.push_back(std::move(f));
+        cv.notify_one();
+      }
+    });
+  }
+  Status catalog_status = Status::Ok();
+  for (size_t done = 0; done < jobs.size(); ++done) {
+    Finished f;
+    {
+      std::unique_lock lock(mu);
+      cv.wait(lock, [&] { return !finished.empty(); });
+      f = std::move(finished.front());
+      finished.pop_front();
+    }
+    if (f.entry) {
+      // The row goes in after the file is in place: a row never points at a missing file.
+      if (catalog_status.ok()) catalog_status = catalog.Put(*f.entry);
+      report.bytes_in += f.entry->bytes_in;
+      report.bytes_out += f.entry->bytes_out;
+      switch (f.entry->status) {
+        case AssetStatus::kOk: ++report.ok; break;
+        case AssetStatus::kOkWithWarnings: ++report.ok_with_warnings; break;
+        case AssetStatus::kFailed: ++report.failed; ++report.failure_codes[*f.entry->error_code]; break;
+      }
+      for (const json& w : f.entry->warnings) ++report.warning_codes[w["code"].get<std::string>()];
+    } else {
+      ++report.up_to_date;
+    }
+    if (options.on_item) options.on_item(f.outcome);
+    if (options.progress) options.progress(static_cast<int64_t>(done + 1), static_cast<int64_t>(jobs.size()));
+  }
+  for (std::thread& t : pool) t.join();
+  SOLID_RETURN_IF_ERROR(catalog_status);
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace
+
+Result<ConvertReport> ConvertShapeNet(const fs::path& root, const fs::path& out, const ConvertOptions& options) {
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
+  static const std::regex kSynset("^[0-9]{8}$");
+  static const std::regex kModelId("^[0-9a-f]{28,32}$|^u[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}$");
+  std::vector<fs::path> synset_dirs;
+  for (const fs::path& p : SortedEntries(root, true)) {
+    std::string name = p.filename().string();
+    if (!std::regex_match(name, kSynset)) continue;
+    if (!options.synsets.empty() &&
+        std::find(options.synsets.begin(), options.synsets.end(), name) == options.synsets.end()) {
+      continue;
+    }
+    synset_dirs.push_back(p);
+  }
+  if (synset_dirs.empty()) {
+    return NotFoundError(fmt::format("{}: no synset folders (8 digits) found{}", root.string(),
+                                     options.synsets.empty() ? "" : " for the requested --synsets"));
+  }
+  int version = options.shapenet_version.value_or(0);
+  if (version == 0) {
+    version = 1;
+    for (const fs::path& s : synset_dirs) {
+      for (const fs::path& m : SortedEntries(s, true)) {
+        if (fs::is_regular_file(m / "models" / "model_normalized.obj", ec)) {
+          version = 2;
+          break;
+        }
+      }
+      if (version == 2) break;
+    }
+  }
+  bool have_taxonomy = false;
+  std::map<std::string, std::string> taxonomy = ReadTaxonomy(root, &have_taxonomy);
+  std::vector<Job> jobs;
+  for (const fs::path& synset_dir : synset_dirs) {
+    std::string synset = synset_dir.filename().string();
+    json synset_info = {{"synset", synset}};
+    if (auto it = taxonomy.find(synset); it != taxonomy.end()) synset_info["synset_name"] = it->second;
+    for (const fs::path& model_dir : SortedEntries(synset_dir, true)) {
+      std::string model = model_dir.filename().string();
+      Job job;
+      job.key = synset + "/" + model;
+      job.kind = "model";
+      job.source = version == 1 ? "shapenet_v1" : "shapenet_v2";
+      job.output = fs::path("models") / synset / (model + ".glb");
+      job.input_root = root;
+      if (!SafePathComponent(model)) {
+        job.discovery_failure = AssetFailure{"unsafe_name", fmt::format("{}: '{}' is not a safe file name",
+                                                                        synset_dir.string(), model)};
+        jobs.push_back(std::move(job));
+        continue;
+      }
+      job.inputs = ModelInputFiles(model_dir);
+      if (!have_taxonomy) {
+        job.discovery_warnings.push_back({"missing_taxonomy", root.string() + "/taxonomy.json: not found"});
+      }
+      if (!std::regex_match(model, kModelId)) {
+        job.discovery_warnings.push_back({"unexpected_model_id", fmt::format("{}: '{}' is not a ShapeNet model id",
+                                                                             synset_dir.string(), model)});
+      }
+      fs::path obj = version == 1 ? model_dir / "model.obj" : model_dir / "models" / "model_normalized.obj";
+      std::string key = job.key;
+      job.convert = [model_dir, obj, key, version, synset_info] {
+        return ConvertShapeNetModel(model_dir, obj, key, version, synset_info);
+      };
+      jobs.push_back(std::move(job));
+    }
+  }
+  return RunJobs(std::move(jobs), out, options);
+}
+
+namespace {
+
+std::variant<Converted, AssetFailure> ConvertSceneNetRoom(const fs::path& root, const fs::path& obj_path,
+                                                          const std::string& key, bool keep_all) {
+  Result<ObjData> obj = ReadObjFile(obj_path);
+  if (!obj.ok()) return FailureFromStatus(obj.status(), "parse_error");
+  Converted c;
+  fs::path mtl_path;
+  Result<std::optional<MtlData>> mtl = ReadMtlFor(obj_path, *obj, &mtl_path, &c.warnings);
+  if (!mtl.ok()) return FailureFromStatus(mtl.status(), "parse_error");
+  // One node per OBJ object: `o`, else `g`.
+  std::vector<std::string> names;
+  for (const ObjFaceBlock& b : obj->blocks) {
+    std::string name = !b.object.empty() ? b.object : b.group;
+    if (names.empty() || names.back() != name) names.push_back(name);
+  }
+  std::set<std::string> kept, dropped;
+  for (const std::string& n : names) (keep_all || SceneNetStructure(n) != Structure::kNone ? kept : dropped).insert(n);
+  if (!keep_all && kept.empty()) {
+    return AssetFailure{"no_structure", fmt::format("{}: no wall, floor or ceiling object among {} objects",
+                                                    obj_path.string(), names.size())};
+  }
+  ObjAssetOptions options;
+  options.grouping = NodeGrouping::kPerObject;
+  if (!keep_all) options.keep_object = [](const std::string& n) { return SceneNetStructure(n) != Structure::kNone; };
+  options.textures = TextureMode::kValidateOnly;
+  options.mtl_dir = mtl_path.empty() ? obj_path.parent_path() : mtl_path.parent_path();
+  options.confine_root = root;
+  options.mtl_name = mtl_path.empty() ? std::string() : mtl_path.string();
+  Result<ObjAsset> built = BuildAssetFromObj(*obj, mtl->has_value() ? &**mtl : nullptr, options);
+  if (!built.ok()) {
+    AssetFailure f = FailureFromStatus(built.status(), "no_structure");
+    // Structure objects that exist but hold no triangle (only `l` records) leave nothing to render.
+    if (f.code == "empty_geometry") f.code = "no_structure";
+    return f;
+  }
+  c.asset = std::move(built->asset);
+  c.warnings.insert(c.warnings.end(), built->warnings.begin(), built->warnings.end());
+  c.counts = CountsJson(built->counts, *obj);
+  Bounds b = ComputeBounds(c.asset);
+  double extent = 0;
+  for (int k = 0; k < 3; ++k) extent = std::max(extent, b.max[k] - b.min[k]);
+  if (extent > 100) {
+    return AssetFailure{"suspect_units", fmt::format("{}: the room is {:.0f} units across; SceneNet rooms are metres "
+                                                     "(at most about 17 m): millimetres?",
+                                                     obj_path.string(), extent)};
+  }
+  double floor_area = 0;
+  json kept_nodes = json::array();
+  for (Node& node : c.asset.nodes) {
+    Structure s = SceneNetStructure(node.name);
+    node.extras["category"] = SceneNetCategory(node.name);
+    node.extras["structure"] = StructureName(s);
+    kept_nodes.push_back(node.name);
+    if (s != Structure::kFloor) continue;
+    for (const Primitive& p : node.primitives) {
+      for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
+        const float* a = &p.positions[3 * size_t{p.indices[i]}];
+        const float* q = &p.positions[3 * size_t{p.indices[i + 1]}];
+        const float* r = &p.positions[3 * size_t{p.indices[i + 2]}];
+        // Area projected on the horizontal (x, z) plane: glTF is +Y up.
+        floor_area += 0.5 * std::fabs((q[0] - a[0]) * (r[2] - a[2]) - (q[2] - a[2]) * (r[0] - a[0]));
+      }
+    }
+  }
+  c.extras = {{"kept_objects", kept_nodes},
+              {"dropped_objects", json(std::vector<std::string>(dropped.begin(), dropped.end()))},
+              {"floor_area_m2", floor_area},
+              {"height_m", b.empty ? 0.0 : b.max[1] - b.min[1]}};
+  c.asset.extras["source"] = "scenenet";
+  c.asset.extras["scene"] = key;
+  return c;
+}
+
+}  // namespace
+
+Result<ConvertReport> ConvertSceneNet(const fs::path& root, const fs::path& out, const ConvertOptions& options) {
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
+  std::vector<fs::path> objs;
+  for (fs::recursive_directory_iterator it(root, ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->is_directory(ec) && it->path().filename() == "texture_library") {
+      it.disable_recursion_pending();
+      continue;
+    }
+    if (it->is_regular_file(ec) && it->path().extension() == ".obj") objs.push_back(it->path());
+  }
+  if (objs.empty()) return NotFoundError(root.string() + ": no .obj files found");
+  std::sort(objs.begin(), objs.end(), [](const fs::path& a, const fs::path& b) { return a.native() < b.native(); });
+  std::vector<Job> jobs;
+  for (const fs::path& obj : objs) {
+    Job job;
+    job.key = fs::relative(obj, root).replace_extension().generic_string();
+    job.kind = "room";
+    job.source = "scenenet";
+    job.output = fs::path("rooms") / (job.key + ".glb");
+    job.input_root = root;
+    job.inputs = {obj};
+    fs::path mtl = fs::path(obj).replace_extension(".mtl");
+    if (fs::is_regular_file(mtl, ec)) job.inputs.push_back(mtl);
+    std::string key = job.key;
+    bool keep_all = options.keep_all_room_objects;
+    job.convert = [root, obj, key, keep_all] { return ConvertSceneNetRoom(root, obj, key, keep_all); };
+    jobs.push_back(std::move(job));
+  }
+  return RunJobs(std::move(jobs), out, options);
+}
+
+Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path& out, const ConvertOptions& options) {
+  if (set.models < 0 || set.rooms < 0) return InvalidArgumentError("--models and --rooms must not be negative");
+  std::vector<Job> jobs;
+  auto add = [&](bool room, int i) {
+    Job job;
+    std::string name = fmt::format("{}-{:06d}", room ? "room" : "shape", i);
+    job.key = "procedural/" + name;
+    job.kind = room ? "room" : "model";
+    job.source = "procedural";
+    job.output = fs::path(room ? "rooms" : "models") / "procedural" / (name + ".glb");
+    job.input_root = out;
+    job.generator_identity = fmt::format("procedural {} seed {} index {}", room ? "room" : "shape", Hex64(set.seed), i);
+    std::string key = job.key;
+    uint64_t seed = set.seed;
+    job.convert = [room, i, key, seed]() -> std::variant<Converted, AssetFailure> {
+      Result<Asset> asset = room ? MakeProceduralRoom(seed, i, key) : MakeProceduralShape(seed, i, key);
+      if (!asset.ok()) return AssetFailure{"generator_error", asset.status().message()};
+      Converted c;
+      c.asset = std::move(asset).value();
+      c.extras = c.asset.extras;
+      return c;
+    };
+    jobs.push_back(std::move(job));
+  };
+  for (int i = 0; i < set.models; ++i) add(false, i);
+  for (int i = 0; i < set.rooms; ++i) add(true, i);
+  return RunJobs(std::move(jobs), out, options);
+}
+
+}  // namespace solid::convert

@@ -1,0 +1,78 @@
+// `solid convert`: batch conversion of ShapeNet v1/v2 models, SceneNet rooms and
+// procedural shapes and rooms into an assets directory:
+//
+//   OUT/models/<synset>/<model_id>.glb   ShapeNet (key "<synset>/<model_id>")
+//   OUT/models/procedural/shape-NNNNNN.glb    (key "procedural/shape-NNNNNN")
+//   OUT/rooms/<scene key>.glb            SceneNet (key = path below the root, no extension)
+//   OUT/rooms/procedural/room-NNNNNN.glb      (key "procedural/room-NNNNNN")
+//   OUT/catalog.sqlite                   one row per asset (schemas/catalog.sql)
+//
+// Every asset is converted alone: a bad one becomes a `failed` row with a reason naming
+// the file and line, and the batch goes on. Files are published atomically and the
+// catalog row is written after the file. A rerun converts only the assets that are
+// missing or whose inputs, converter version or options changed.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "solid/convert/gltf_writer.h"
+#include "solid/formats/progress.h"
+#include "solid/formats/status.h"
+
+namespace solid::convert {
+
+// The converter's version: part of every catalog row, so a new version reconverts.
+std::string_view ConverterVersion();
+
+struct ItemOutcome {
+  std::string key;
+  std::string status;       // "ok", "ok_with_warnings", "failed", "up_to_date"
+  std::string error_code;   // failures: missing_obj, parse_error, ...
+  std::string message;
+  double milliseconds = 0;
+};
+
+struct ConvertOptions {
+  int jobs = 0;                      // 0: all cores
+  int64_t limit = -1;                // convert at most this many assets (after filtering); -1: all
+  std::vector<std::string> synsets;  // ShapeNet: only these synset folders (empty: all)
+  std::optional<int> shapenet_version;  // 1 or 2; detected when empty
+  DracoOptions draco;
+  bool retry_failed = false;         // reconvert assets whose row says failed with unchanged inputs
+  bool keep_all_room_objects = false;  // SceneNet: keep every object, not only walls, floors, ceilings
+  ProgressCallback progress;         // assets done / total
+  std::function<void(const ItemOutcome&)> on_item;  // called from the calling thread
+};
+
+struct ConvertReport {
+  int64_t assets = 0;      // considered (after filters and --limit)
+  int64_t up_to_date = 0;  // skipped: the catalog row matches
+  int64_t ok = 0, ok_with_warnings = 0, failed = 0;
+  std::map<std::string, int64_t> failure_codes, warning_codes;
+  int64_t bytes_in = 0, bytes_out = 0;
+  double seconds = 0;
+  std::filesystem::path catalog;
+};
+
+// Fatal errors (a root that is not a ShapeNet tree, an output that cannot be created)
+// are returned as a Status; per-asset failures are in the report and the catalog.
+Result<ConvertReport> ConvertShapeNet(const std::filesystem::path& root, const std::filesystem::path& out,
+                                      const ConvertOptions& options);
+Result<ConvertReport> ConvertSceneNet(const std::filesystem::path& root, const std::filesystem::path& out,
+                                      const ConvertOptions& options);
+
+struct ProceduralSet {
+  int models = 64;
+  int rooms = 8;
+  uint64_t seed = 1;
+};
+Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const std::filesystem::path& out,
+                                        const ConvertOptions& options);
+
+}  // namespace solid::convert
