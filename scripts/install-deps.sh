@@ -13,8 +13,11 @@ packages=(
   libembree-dev libdraco-dev libtinygltf-dev libtinyobjloader-dev libmeshoptimizer-dev
   libnlopt-cxx-dev libtbb-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite
+  libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite assimp-testmodels bc
 )
+
+# Optional tools (fuzzing with clang and libFuzzer): installed with --fuzz.
+if [ "${1:-}" = "--fuzz" ]; then packages+=(clang libclang-rt-14-dev); fi
 
 missing=()
 for p in "${packages[@]}"; do
