@@ -9,8 +9,10 @@ scripts/install-deps.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j "$(nproc)" --target solid make_fixture_dataset
 out=${1:-out/default}
-rm -rf "$out"
-build/tests/make_fixture_dataset "$out" --images 200 --shard-size 64 --width 320 --height 240 --depth
-build/cli/solid index "$out"
-build/cli/solid validate "$out"
-build/cli/solid inspect "$out"
+build/cli/solid convert procedural "$out/assets" --models 64 --rooms 8 --seed 1
+build/cli/solid inspect "$out/assets"
+rm -rf "$out/dataset"
+build/tests/make_fixture_dataset "$out/dataset" --images 200 --shard-size 64 --width 320 --height 240 --depth
+build/cli/solid index "$out/dataset"
+build/cli/solid validate "$out/dataset"
+build/cli/solid inspect "$out/dataset"
