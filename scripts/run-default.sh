@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# The main job of README.md on the embedded default, with no download.
-# Until `solid render` lands (issue: render), the data comes from the 2D-shape
-# fixture generator of tests/ through the same writer API the renderer will use;
-# the rest is the real pipeline tail: index, validate, inspect.
+# The main job of README.md on the embedded default, with no download: the procedural
+# shapes and rooms converted to assets (a rerun converts only what changed). Until
+# `solid render` lands (issue: render), the dataset comes from the 2D-shape fixture
+# generator of tests/ through the same writer API the renderer will use; the rest is
+# the real pipeline tail: index, validate, inspect.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
