@@ -23,25 +23,40 @@ enum class ShapeFamily {
 inline constexpr int kShapeFamilyCount = 6;
 std::string_view ShapeFamilyName(ShapeFamily f);
 
+// The accepted triangle ranges: every family can be tessellated finely and coarsely enough.
+inline constexpr int kMinProceduralTriangles = 256;
+inline constexpr int kMaxProceduralTriangles = 4'000'000;
+
 struct ProceduralShapeOptions {
-  int min_triangles = 2000;   // tessellation is chosen to land within [min, max]
+  // Tessellation lands within [min, max]; kInvalidArgument unless
+  // kMinProceduralTriangles <= min, 1.25 * min <= max <= kMaxProceduralTriangles.
+  int min_triangles = 2000;
   int max_triangles = 20000;
-  int texture_size = 128;     // square, PNG
+  int texture_size = 128;     // square, PNG, in [4, 4096]
 };
 
 // Model i of the default set: family i % kShapeFamilyCount, parameters from (seed, i).
 // Node name = key ("procedural/shape-000042"); one or two materials with a procedural
-// texture (checker, stripes, noise or flat colour) and UVs.
+// texture (checker, stripes, noise or flat colour) and UVs. Closed meshes wound
+// counter-clockwise seen from outside; smooth normals that keep creases sharper than
+// 60 degrees (box faces are flat). The triangle count is drawn log-uniformly inside the
+// range. Asset::extras holds generator, family, seed (hex) and index. kInvalidArgument
+// for a negative index or options out of range. Bit-identical output needs the same
+// libm (sin, cos, pow) and PNG encoder; the code itself avoids <random> distributions
+// and fused multiply-adds. Thread-safe.
 Result<Asset> MakeProceduralShape(uint64_t seed, int index, const std::string& key,
                                   const ProceduralShapeOptions& options = {});
 
 struct ProceduralRoomOptions {
-  int texture_size = 256;
+  int texture_size = 256;  // square, PNG, in [4, 4096]; one texture repeat per metre
 };
 
 // Room i: box- or L-shaped, 4-16 m across and 2.5-4 m high, with textured floor,
 // walls and ceiling as separate nodes named "floor", "wall", "ceiling" (SceneNet's
 // structure classes), normals facing inwards, UVs in metres (textures repeat).
+// Floor, walls and ceiling meet at bit-identical positions: the room is one closed,
+// inward-wound mesh, cut into panels of at most about 1 m. Materials "floor", "wall",
+// "ceiling"; Asset::extras adds plan ("box" or "L"), size_m [x, y, z] and the key.
 Result<Asset> MakeProceduralRoom(uint64_t seed, int index, const std::string& key,
                                  const ProceduralRoomOptions& options = {});
 
