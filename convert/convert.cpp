@@ -193,6 +193,7 @@ std::variant<Converted, AssetFailure> ConvertShapeNetModel(const fs::path& model
   options.mtl_dir = mtl_path.empty() ? obj_path.parent_path() : mtl_path.parent_path();
   options.confine_root = model_dir;
   options.mtl_name = mtl_path.empty() ? std::string() : mtl_path.string();
+  options.obj_name = obj_path.string();
   Result<ObjAsset> built = BuildAssetFromObj(*obj, mtl->has_value() ? &**mtl : nullptr, options);
   if (!built.ok()) return FailureFromStatus(built.status(), "empty_geometry");
   c.asset = std::move(built->asset);
@@ -526,6 +527,7 @@ std::variant<Converted, AssetFailure> ConvertSceneNetRoom(const fs::path& root, 
   options.mtl_dir = mtl_path.empty() ? obj_path.parent_path() : mtl_path.parent_path();
   options.confine_root = root;
   options.mtl_name = mtl_path.empty() ? std::string() : mtl_path.string();
+  options.obj_name = obj_path.string();
   Result<ObjAsset> built = BuildAssetFromObj(*obj, mtl->has_value() ? &**mtl : nullptr, options);
   if (!built.ok()) {
     AssetFailure f = FailureFromStatus(built.status(), "no_structure");

@@ -10,8 +10,8 @@
 //   - UVs -> (u, 1 - v), never wrapped; corners without vt in a primitive with UVs or a
 //     textured material get OBJ (0, 0);
 //   - materials: name verbatim, baseColor (Kd, d), d < 1 -> BLEND, metallic 0;
-//     undefined usemtl -> default material of that name; faces before any usemtl take
-//     the sole MTL material if there is exactly one, else a default;
+//     undefined usemtl -> default material of that name (Kd 0.8, d 1); faces before any
+//     usemtl take the sole MTL material if there is exactly one, else none (glTF's default);
 //   - textures resolved against the MTL's directory and confined to a root folder
 //     (absolute paths, URIs, '..' escapes and symlinks leaving it are refused), JPEG/PNG
 //     by magic bytes, embedded once per file, or only validated (SceneNet).
@@ -35,19 +35,32 @@ struct ConvertWarning {
   std::string message;  // names the file and line where that applies
 };
 
+// Triangle counts cover the objects keep_object keeps, except triangles_in, which is
+// every OBJ triangle. Normal and UV counts are per corner of an emitted triangle;
+// texture counts are per used material, except textures_embedded (distinct files).
 struct CleanCounts {
   uint64_t triangles_in = 0, triangles_out = 0;
-  uint64_t reversed_twins = 0;          // kept
+  uint64_t reversed_twins = 0;          // kept: positions of an earlier triangle of the primitive, reversed
   uint64_t duplicates_removed = 0, degenerates_removed = 0;
-  uint64_t empty_blocks_dropped = 0;    // blocks/objects without triangles (line-only groups...)
-  uint64_t normals_renormalized = 0, zero_normals = 0, normals_from_geometry = 0;
+  uint64_t empty_blocks_dropped = 0;    // ObjData blocks without triangles (line-only groups...)
+  uint64_t normals_renormalized = 0;    // | |vn| - 1 | > 1e-6
+  uint64_t zero_normals = 0, normals_from_geometry = 0;  // both get the geometric normal
   uint64_t uvs_filled = 0;
-  uint64_t textures_embedded = 0, textures_missing = 0, textures_rejected = 0;
+  uint64_t textures_embedded = 0;
+  uint64_t textures_missing = 0;        // "missing_texture"
+  uint64_t textures_rejected = 0;       // path rejected, directory (kEmbed), unsupported, too large
 };
 
 enum class NodeGrouping {
-  kSingleNode,  // ShapeNet: one node, one mesh, one primitive per used material
-  kPerObject,   // SceneNet: one node per OBJ object (`o`, else `g`); later duplicates named .001, .002...
+  // ShapeNet: one node, one mesh, one primitive per used material in first-use order.
+  // Faces before any usemtl take the sole MTL material if there is exactly one, else none.
+  kSingleNode,
+  // SceneNet: one node per OBJ object (`o`, else `g`), names verbatim. Consecutive blocks
+  // with the same name are one object; a name that recurs after another object is a new
+  // object, named .001, .002... (the first free suffix; the first object keeps the name).
+  // Only objects with triangles take part in the naming. Faces before any usemtl get no
+  // material (the glTF default).
+  kPerObject,
 };
 
 enum class TextureMode {
@@ -58,11 +71,13 @@ enum class TextureMode {
 struct ObjAssetOptions {
   NodeGrouping grouping = NodeGrouping::kSingleNode;
   std::string node_name;  // kSingleNode: the node's name
-  // kPerObject: which objects to keep (all when empty); called with the object name.
+  // kPerObject: which objects to keep (all when empty); called with the node name,
+  // after the .001 renaming.
   std::function<bool(const std::string& object_name)> keep_object;
   TextureMode textures = TextureMode::kEmbed;
   std::filesystem::path mtl_dir;       // texture paths resolve against this
   std::filesystem::path confine_root;  // and must stay inside this (the model folder)
+  std::string obj_name;                // for messages ("model.obj")
   std::string mtl_name;                // for messages ("model.mtl")
   uint64_t max_texture_bytes = 64 << 20;
 };
@@ -74,7 +89,11 @@ struct ObjAsset {
 };
 
 // `mtl` may be null (missing MTL: a "missing_mtl" warning when the OBJ names one).
-// Fails with a message containing "empty_geometry" when no triangle survives.
+// Fails with kCorrupt and a message containing "empty_geometry" when no triangle
+// survives (keep_object included), "index_out_of_range" for a corner outside `obj`'s
+// arrays, "position_out_of_range" for a used position beyond float range; with
+// kInvalidArgument when the MTL has a map_Kd and options.confine_root is empty.
+// Reads texture files (and nothing else); thread-safe.
 Result<ObjAsset> BuildAssetFromObj(const ObjData& obj, const MtlData* mtl, const ObjAssetOptions& options);
 
 }  // namespace solid::convert
