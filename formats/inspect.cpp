@@ -79,6 +79,7 @@ Result<json> InspectAssets(const fs::path& root) {
   int64_t bytes_in = 0, bytes_out = 0, triangles = 0, models = 0, rooms = 0;
   for (const CatalogEntry& e : entries) {
     json& src = by_source[e.source];
+    if (src.is_null()) src = json::object();
     std::string status(AssetStatusName(e.status));
     src[status] = src.value(status, 0) + 1;
     (e.kind == "room" ? rooms : models) += 1;

@@ -3,17 +3,28 @@
 # errors, AddressSanitizer + UndefinedBehaviorSanitizer) and runs every ctest suite.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/install-deps.sh
+scripts/install-deps.sh --fuzz
 # Khronos glTF-Validator from the npm registry, for the convert tests (they skip, saying
 # so, when it cannot be installed).
 if [ ! -d tests/convert/node/node_modules/gltf-validator ] && command -v npm >/dev/null; then
-  npm install --prefix tests/convert/node --no-audit --no-fund --silent gltf-validator@2.0.0-dev.3.10 >/dev/null 2>&1 ||
+  npm ci --prefix tests/convert/node --no-audit --no-fund --silent >/dev/null 2>&1 ||
     echo "test: could not install npm gltf-validator; glTF validation tests will skip"
 fi
 build=${SOLID_TEST_BUILD_DIR:-build-test}
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DSOLID_WERROR=ON -DSOLID_SANITIZE=ON -DSOLID_BUILD_BENCH=ON >/dev/null
 cmake --build "$build" -j "$(nproc)"
-# The benchmarks are built (so they cannot rot) but never run here: they are slow by design.
+
+# Fuzz smoke run: each libFuzzer target for a few seconds on its seed corpus (clang build;
+# long campaigns: see tests/fuzz/CMakeLists.txt).
+fuzz_build=${SOLID_FUZZ_BUILD_DIR:-build-fuzz}
+CC=clang CXX=clang++ cmake -S . -B "$fuzz_build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DSOLID_BUILD_FUZZERS=ON -DSOLID_BUILD_BENCH=OFF >/dev/null
+cmake --build "$fuzz_build" -j "$(nproc)" --target obj_fuzz
+corpus=$(mktemp -d)
+trap 'rm -rf "$corpus"' EXIT
+"$fuzz_build/tests/fuzz/obj_fuzz" -max_total_time=20 -dict=tests/fuzz/obj.dict "$corpus" tests/fuzz/corpus/obj 2>&1 | tail -n 2
+
+# Last, so that its summary closes the output. The benchmarks are built (so they cannot rot) but never run here: they are slow by design.
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1
 ctest --test-dir "$build" --output-on-failure -j "$(nproc)"

@@ -128,8 +128,9 @@ TEST(ConvertShapeNet, RerunConvertsOnlyWhatChanged) {
   finer.draco.position_bits = 16;
   auto fourth = ConvertShapeNet(root, out, finer);
   ASSERT_OK(fourth.status());
-  EXPECT_EQ(fourth->up_to_date, 2) << "only the two failures stay as they were";
+  EXPECT_EQ(fourth->up_to_date, 0) << "new options reconvert everything, failures included";
   EXPECT_EQ(fourth->ok + fourth->ok_with_warnings, 5);
+  EXPECT_EQ(fourth->failed, 2);
 }
 
 TEST(ConvertShapeNet, LimitAndSynsetFilters) {
