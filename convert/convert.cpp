@@ -136,6 +136,28 @@ Result<std::optional<MtlData>> ReadMtlFor(const fs::path& obj_path, const ObjDat
   return std::optional<MtlData>();
 }
 
+// An OBJ with the MTL it names, and the builder options every source shares.
+struct LoadedObj {
+  ObjData obj;
+  std::optional<MtlData> mtl;
+  ObjAssetOptions options;
+};
+
+std::variant<LoadedObj, AssetFailure> LoadObj(const fs::path& obj_path, std::vector<ConvertWarning>* warnings) {
+  Result<ObjData> obj = ReadObjFile(obj_path);
+  if (!obj.ok()) return FailureFromStatus(obj.status(), "parse_error");
+  LoadedObj loaded;
+  loaded.obj = std::move(obj).value();
+  fs::path mtl_path;
+  Result<std::optional<MtlData>> mtl = ReadMtlFor(obj_path, loaded.obj, &mtl_path, warnings);
+  if (!mtl.ok()) return FailureFromStatus(mtl.status(), "parse_error");
+  loaded.mtl = std::move(mtl).value();
+  loaded.options.mtl_dir = mtl_path.empty() ? obj_path.parent_path() : mtl_path.parent_path();
+  loaded.options.mtl_name = mtl_path.empty() ? std::string() : mtl_path.string();
+  loaded.options.obj_name = obj_path.string();
+  return loaded;
+}
+
 json CountsJson(const CleanCounts& c, const ObjData& obj) {
   return {{"triangles_in", c.triangles_in},
           {"triangles_out", c.triangles_out},
@@ -180,21 +202,17 @@ std::variant<Converted, AssetFailure> ConvertShapeNetModel(const fs::path& model
     return AssetFailure{"missing_obj", fmt::format("{}: no {}", model_dir.string(),
                                                    fs::relative(obj_path, model_dir).generic_string())};
   }
-  Result<ObjData> obj = ReadObjFile(obj_path);
-  if (!obj.ok()) return FailureFromStatus(obj.status(), "parse_error");
   Converted c;
-  fs::path mtl_path;
-  Result<std::optional<MtlData>> mtl = ReadMtlFor(obj_path, *obj, &mtl_path, &c.warnings);
-  if (!mtl.ok()) return FailureFromStatus(mtl.status(), "parse_error");
-  ObjAssetOptions options;
+  std::variant<LoadedObj, AssetFailure> loaded_or = LoadObj(obj_path, &c.warnings);
+  if (auto* failure = std::get_if<AssetFailure>(&loaded_or)) return *failure;
+  LoadedObj& loaded = std::get<LoadedObj>(loaded_or);
+  const ObjData* obj = &loaded.obj;
+  ObjAssetOptions& options = loaded.options;
   options.grouping = NodeGrouping::kSingleNode;
   options.node_name = key;
   options.textures = TextureMode::kEmbed;
-  options.mtl_dir = mtl_path.empty() ? obj_path.parent_path() : mtl_path.parent_path();
   options.confine_root = model_dir;
-  options.mtl_name = mtl_path.empty() ? std::string() : mtl_path.string();
-  options.obj_name = obj_path.string();
-  Result<ObjAsset> built = BuildAssetFromObj(*obj, mtl->has_value() ? &**mtl : nullptr, options);
+  Result<ObjAsset> built = BuildAssetFromObj(*obj, loaded.mtl ? &*loaded.mtl : nullptr, options);
   if (!built.ok()) return FailureFromStatus(built.status(), "empty_geometry");
   c.asset = std::move(built->asset);
   c.warnings.insert(c.warnings.end(), built->warnings.begin(), built->warnings.end());
@@ -502,12 +520,11 @@ namespace {
 
 std::variant<Converted, AssetFailure> ConvertSceneNetRoom(const fs::path& root, const fs::path& obj_path,
                                                           const std::string& key, bool keep_all) {
-  Result<ObjData> obj = ReadObjFile(obj_path);
-  if (!obj.ok()) return FailureFromStatus(obj.status(), "parse_error");
   Converted c;
-  fs::path mtl_path;
-  Result<std::optional<MtlData>> mtl = ReadMtlFor(obj_path, *obj, &mtl_path, &c.warnings);
-  if (!mtl.ok()) return FailureFromStatus(mtl.status(), "parse_error");
+  std::variant<LoadedObj, AssetFailure> loaded_or = LoadObj(obj_path, &c.warnings);
+  if (auto* failure = std::get_if<AssetFailure>(&loaded_or)) return *failure;
+  LoadedObj& loaded = std::get<LoadedObj>(loaded_or);
+  const ObjData* obj = &loaded.obj;
   // One node per OBJ object: `o`, else `g`.
   std::vector<std::string> names;
   for (const ObjFaceBlock& b : obj->blocks) {
@@ -520,15 +537,12 @@ std::variant<Converted, AssetFailure> ConvertSceneNetRoom(const fs::path& root, 
     return AssetFailure{"no_structure", fmt::format("{}: no wall, floor or ceiling object among {} objects",
                                                     obj_path.string(), names.size())};
   }
-  ObjAssetOptions options;
+  ObjAssetOptions& options = loaded.options;
   options.grouping = NodeGrouping::kPerObject;
   if (!keep_all) options.keep_object = [](const std::string& n) { return SceneNetStructure(n) != Structure::kNone; };
   options.textures = TextureMode::kValidateOnly;
-  options.mtl_dir = mtl_path.empty() ? obj_path.parent_path() : mtl_path.parent_path();
   options.confine_root = root;
-  options.mtl_name = mtl_path.empty() ? std::string() : mtl_path.string();
-  options.obj_name = obj_path.string();
-  Result<ObjAsset> built = BuildAssetFromObj(*obj, mtl->has_value() ? &**mtl : nullptr, options);
+  Result<ObjAsset> built = BuildAssetFromObj(*obj, loaded.mtl ? &*loaded.mtl : nullptr, options);
   if (!built.ok()) {
     AssetFailure f = FailureFromStatus(built.status(), "no_structure");
     // Structure objects that exist but hold no triangle (only `l` records) leave nothing to render.
