@@ -17,7 +17,7 @@ struct ConvertFlags {
   std::vector<std::string> synsets;
   int version = 0;
   bool retry_failed = false, all_objects = false, verbose = false;
-  convert::DracoOptions draco;
+  gltf::DracoOptions draco;
   convert::ProceduralSet procedural;
 };
 

@@ -22,6 +22,8 @@
 #include "solid/formats/files.h"
 
 namespace solid::convert {
+// The asset model and its glb codec live in formats (render reads them too).
+using namespace solid::gltf;
 namespace fs = std::filesystem;
 using nlohmann::json;
 

@@ -16,7 +16,7 @@ using namespace solid;
 
 namespace {
 
-bool WriteModel(const convert::Asset& asset, const fs::path& dir) {
+bool WriteModel(const gltf::Asset& asset, const fs::path& dir) {
   fs::create_directories(dir / "models");
   fs::create_directories(dir / "images");
   std::string obj = "# File produced by Open Asset Import Library (http://www.assimp.sf.net)\n"
@@ -28,16 +28,16 @@ bool WriteModel(const convert::Asset& asset, const fs::path& dir) {
                static_cast<std::streamsize>(asset.textures[t].bytes.size()));
   }
   for (size_t m = 0; m < asset.materials.size(); ++m) {
-    const convert::Material& mat = asset.materials[m];
+    const gltf::Material& mat = asset.materials[m];
     mtl += fmt::format("newmtl material_{}\nKd {} {} {}\nKa 0 0 0\nKs 0.4 0.4 0.4\nd {}\nNs 10\nillum 2\n", m,
                        mat.base_color[0], mat.base_color[1], mat.base_color[2], mat.base_color[3]);
     if (mat.base_color_texture) mtl += fmt::format("map_Kd ../images/texture{}.png\n", *mat.base_color_texture);
     mtl += "\n";
   }
   size_t base = 0;
-  for (const convert::Node& node : asset.nodes) {
+  for (const gltf::Node& node : asset.nodes) {
     for (size_t p = 0; p < node.primitives.size(); ++p) {
-      const convert::Primitive& prim = node.primitives[p];
+      const gltf::Primitive& prim = node.primitives[p];
       size_t n = prim.positions.size() / 3;
       for (size_t i = 0; i < n; ++i) {
         obj += fmt::format("v {:f} {:f} {:f}\n", prim.positions[3 * i], prim.positions[3 * i + 1], prim.positions[3 * i + 2]);

@@ -8,12 +8,14 @@
 
 #include "fixtures/input_trees.h"
 #include "formats/test_util.h"
-#include "solid/convert/gltf_writer.h"
+#include "solid/formats/glb.h"
 #include "solid/formats/catalog.h"
 #include "solid/formats/files.h"
 #include "solid/formats/inspect.h"
 
 namespace solid::convert {
+// The asset model and its glb codec live in formats (render reads them too).
+using namespace solid::gltf;
 namespace {
 
 namespace fs = std::filesystem;

@@ -17,6 +17,8 @@
 #include "solid/formats/image_codec.h"
 
 namespace solid::convert {
+// The asset model and its glb codec live in formats (render reads them too).
+using namespace solid::gltf;
 namespace {
 
 namespace fs = std::filesystem;

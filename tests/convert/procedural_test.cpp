@@ -19,6 +19,8 @@
 #include "solid/formats/image_codec.h"
 
 namespace solid::convert {
+// The asset model and its glb codec live in formats (render reads them too).
+using namespace solid::gltf;
 namespace {
 
 constexpr uint64_t kSeed = 0x5eed0001;

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "solid/convert/gltf_writer.h"
+#include "solid/formats/glb.h"
 #include "solid/formats/progress.h"
 #include "solid/formats/status.h"
 
@@ -43,7 +43,7 @@ struct ConvertOptions {
   int64_t limit = -1;                // convert at most this many assets (after filtering); -1: all
   std::vector<std::string> synsets;  // ShapeNet: only these synset folders (empty: all)
   std::optional<int> shapenet_version;  // 1 or 2; detected when empty
-  DracoOptions draco;
+  gltf::DracoOptions draco;
   bool retry_failed = false;         // reconvert assets whose row says failed with unchanged inputs
   bool keep_all_room_objects = false;  // SceneNet: keep every object, not only walls, floors, ceilings
   ProgressCallback progress;         // assets done / total

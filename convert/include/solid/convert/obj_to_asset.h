@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "solid/convert/asset.h"
+#include "solid/formats/asset.h"
 #include "solid/convert/obj.h"
 #include "solid/formats/status.h"
 
@@ -83,7 +83,7 @@ struct ObjAssetOptions {
 };
 
 struct ObjAsset {
-  Asset asset;
+  gltf::Asset asset;
   CleanCounts counts;
   std::vector<ConvertWarning> warnings;
 };

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "solid/convert/asset.h"
+#include "solid/formats/asset.h"
 #include "solid/formats/status.h"
 
 namespace solid::convert {
@@ -44,7 +44,7 @@ struct ProceduralShapeOptions {
 // for a negative index or options out of range. Bit-identical output needs the same
 // libm (sin, cos, pow) and PNG encoder; the code itself avoids <random> distributions
 // and fused multiply-adds. Thread-safe.
-Result<Asset> MakeProceduralShape(uint64_t seed, int index, const std::string& key,
+Result<gltf::Asset> MakeProceduralShape(uint64_t seed, int index, const std::string& key,
                                   const ProceduralShapeOptions& options = {});
 
 struct ProceduralRoomOptions {
@@ -57,7 +57,7 @@ struct ProceduralRoomOptions {
 // Floor, walls and ceiling meet at bit-identical positions: the room is one closed,
 // inward-wound mesh, cut into panels of at most about 1 m. Materials "floor", "wall",
 // "ceiling"; Asset::extras adds plan ("box" or "L"), size_m [x, y, z] and the key.
-Result<Asset> MakeProceduralRoom(uint64_t seed, int index, const std::string& key,
+Result<gltf::Asset> MakeProceduralRoom(uint64_t seed, int index, const std::string& key,
                                  const ProceduralRoomOptions& options = {});
 
 }  // namespace solid::convert

@@ -1,4 +1,4 @@
-#include "solid/convert/gltf_writer.h"
+#include "solid/formats/glb.h"
 
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
@@ -18,7 +18,7 @@
 #include <utility>
 #include <vector>
 
-namespace solid::convert {
+namespace solid::gltf {
 namespace {
 
 using nlohmann::json;
@@ -968,4 +968,4 @@ Result<Asset> ReadGlb(std::span<const uint8_t> bytes, std::string_view name) {
   }
 }
 
-}  // namespace solid::convert
+}  // namespace solid::gltf

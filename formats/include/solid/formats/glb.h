@@ -10,10 +10,10 @@
 #include <string_view>
 #include <vector>
 
-#include "solid/convert/asset.h"
+#include "solid/formats/asset.h"
 #include "solid/formats/status.h"
 
-namespace solid::convert {
+namespace solid::gltf {
 
 struct DracoOptions {
   int position_bits = 14;
@@ -50,4 +50,4 @@ Result<std::vector<uint8_t>> WriteGlb(const Asset& asset, const DracoOptions& op
 // few hundred MB on a corrupt stream before it fails.
 Result<Asset> ReadGlb(std::span<const uint8_t> bytes, std::string_view name);
 
-}  // namespace solid::convert
+}  // namespace solid::gltf

@@ -1,4 +1,4 @@
-#include "solid/convert/gltf_writer.h"
+#include "solid/formats/glb.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -21,7 +21,7 @@
 #include "formats/test_util.h"
 #include "solid/formats/image_codec.h"
 
-namespace solid::convert {
+namespace solid::gltf {
 namespace {
 
 using nlohmann::json;
@@ -792,4 +792,4 @@ TEST(GltfWriter, KhronosValidatorReportsNoErrors) {
 }
 
 }  // namespace
-}  // namespace solid::convert
+}  // namespace solid::gltf

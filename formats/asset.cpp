@@ -1,8 +1,8 @@
-#include "solid/convert/asset.h"
+#include "solid/formats/asset.h"
 
 #include <algorithm>
 
-namespace solid::convert {
+namespace solid::gltf {
 
 Bounds ComputeBounds(const Asset& asset) {
   Bounds b;
@@ -41,4 +41,4 @@ uint64_t VertexCount(const Asset& asset) {
   return n;
 }
 
-}  // namespace solid::convert
+}  // namespace solid::gltf

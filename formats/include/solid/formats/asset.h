@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace solid::convert {
+namespace solid::gltf {
 
 struct Texture {
   std::string name;            // source file name, for diagnostics and the glTF image name
@@ -59,4 +59,4 @@ Bounds ComputeBounds(const Asset& asset);
 uint64_t TriangleCount(const Asset& asset);
 uint64_t VertexCount(const Asset& asset);
 
-}  // namespace solid::convert
+}  // namespace solid::gltf
