@@ -1081,9 +1081,10 @@ Result<Asset> MakeProceduralRoom(uint64_t seed, int index, const std::string& ke
     SOLID_RETURN_IF_ERROR(AddTexturedMaterial(asset, surfacing.name, pattern, options.texture_size, roughness)
                               .WithContext(where));
   }
-  asset.nodes.push_back({"floor", {HorizontalSurface(plan, false, 0)}, nlohmann::json::object()});
-  asset.nodes.push_back({"wall", {Walls(plan, 1)}, nlohmann::json::object()});
-  asset.nodes.push_back({"ceiling", {HorizontalSurface(plan, true, 2)}, nlohmann::json::object()});
+  // extras.structure is how the renderer tells shell pieces apart, as for SceneNet rooms.
+  asset.nodes.push_back({"floor", {HorizontalSurface(plan, false, 0)}, {{"structure", "floor"}}});
+  asset.nodes.push_back({"wall", {Walls(plan, 1)}, {{"structure", "wall"}}});
+  asset.nodes.push_back({"ceiling", {HorizontalSurface(plan, true, 2)}, {{"structure", "ceiling"}}});
   asset.extras = {{"generator", "solid procedural"},
                   {"family", "room"},
                   {"plan", plan.l_shaped ? "L" : "box"},

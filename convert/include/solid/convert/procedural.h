@@ -52,7 +52,7 @@ struct ProceduralRoomOptions {
 };
 
 // Room i: box- or L-shaped, 4-16 m across and 2.5-4 m high, with textured floor,
-// walls and ceiling as separate nodes named "floor", "wall", "ceiling" (SceneNet's
+// walls and ceiling as separate nodes named "floor", "wall", "ceiling" with extras.structure set alike (SceneNet's
 // structure classes), normals facing inwards, UVs in metres (textures repeat).
 // Floor, walls and ceiling meet at bit-identical positions: the room is one closed,
 // inward-wound mesh, cut into panels of at most about 1 m. Materials "floor", "wall",
