@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "solid/formats/image_codec.h"
+#include "solid/formats/random.h"
 
 namespace solid::convert {
 // The asset model and its glb codec live in formats (render reads them too).
@@ -22,57 +23,13 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 
 // ---------------------------------------------------------------------------------------
-// Randomness (style H5). <random>'s distributions differ between standard libraries, so
-// every draw goes through this PCG32 and an explicit integer-to-double conversion.
-
-uint64_t SplitMix64(uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
-
-uint64_t Hash(uint64_t a, uint64_t b) { return SplitMix64(a ^ SplitMix64(b)); }
-
-// Separate streams, so that a change to how materials are drawn never changes geometry.
+// Randomness: solid/formats/random.h. Separate streams, so that a change to how
+// materials are drawn never changes geometry.
 enum Stream : uint64_t {
   kShapeGeometryStream = 1,
   kShapeMaterialStream = 2,
   kRoomGeometryStream = 3,
   kRoomMaterialStream = 4,
-};
-
-class Rng {
- public:
-  Rng(uint64_t seed, uint64_t stream) : increment_((stream << 1) | 1) {
-    Next();
-    state_ += seed;
-    Next();
-  }
-
-  uint32_t Next() {
-    const uint64_t old = state_;
-    state_ = old * 6364136223846793005ull + increment_;
-    const auto xorshifted = static_cast<uint32_t>(((old >> 18) ^ old) >> 27);
-    const auto rotation = static_cast<uint32_t>(old >> 59);
-    return (xorshifted >> rotation) | (xorshifted << ((32 - rotation) & 31));
-  }
-  double Uniform() { return Next() * 0x1p-32; }  // [0, 1), exact in any IEEE double
-  double Uniform(double lo, double hi) { return lo + (hi - lo) * Uniform(); }
-  // The modulo bias is below 2^-24 for the small ranges used here.
-  int Int(int lo, int hi_inclusive) {
-    return lo + static_cast<int>(Next() % static_cast<uint32_t>(hi_inclusive - lo + 1));
-  }
-  bool Chance(double p) { return Uniform() < p; }
-  // A seed for a sub-generator (noise lattices) that does not depend on later draws.
-  uint64_t Seed() {
-    const uint64_t high = Next();
-    return (high << 32) | Next();
-  }
-
- private:
-  uint64_t state_ = 0;
-  uint64_t increment_;
 };
 
 // ---------------------------------------------------------------------------------------
@@ -304,7 +261,7 @@ Shape Sweep(const SurfaceFunction& at, double edge, int side_material, int cap_m
 // everywhere because it only uses floor, multiplies and adds.
 
 double LatticeValue(uint64_t seed, int64_t x, int64_t y, int64_t z) {
-  const uint64_t h = Hash(Hash(Hash(seed, static_cast<uint64_t>(x)), static_cast<uint64_t>(y)),
+  const uint64_t h = MixSeed(MixSeed(MixSeed(seed, static_cast<uint64_t>(x)), static_cast<uint64_t>(y)),
                           static_cast<uint64_t>(z));
   return static_cast<double>(h >> 11) * 0x1p-52 - 1.0;  // [-1, 1)
 }
@@ -341,7 +298,7 @@ double TileableFbm(uint64_t seed, double u, double v, int period_x, int period_y
   double sum = 0, amplitude = 0.5, norm = 0;
   for (int o = 0; o < octaves; ++o) {
     const int px = period_x << o, py = period_y << o;
-    sum += amplitude * TileableNoise2(Hash(seed, static_cast<uint64_t>(o)), u * px, v * py, px, py);
+    sum += amplitude * TileableNoise2(MixSeed(seed, static_cast<uint64_t>(o)), u * px, v * py, px, py);
     norm += amplitude;
     amplitude *= 0.5;
   }
@@ -400,7 +357,7 @@ Tessellator NoisySphere(Rng& rng, int material_count) {
     const Vec3 direction{std::cos(eta) * cx, std::sin(eta), std::cos(eta) * cz};
     double radius = 1, f = frequency, a = amplitude;
     for (int o = 0; o < octaves; ++o) {
-      radius += a * ValueNoise3(Hash(noise_seed, static_cast<uint64_t>(o)), direction * f);
+      radius += a * ValueNoise3(MixSeed(noise_seed, static_cast<uint64_t>(o)), direction * f);
       f *= 2.0;
       a *= 0.5;
     }
@@ -1017,7 +974,7 @@ Result<Asset> MakeProceduralShape(uint64_t seed, int index, const std::string& k
     return InvalidArgumentError(fmt::format("{}: texture_size {} outside [4, 4096]", where, options.texture_size));
   }
 
-  const uint64_t item = Hash(seed, static_cast<uint64_t>(index));
+  const uint64_t item = MixSeed(seed, static_cast<uint64_t>(index));
   Rng geometry(item, kShapeGeometryStream);
   Rng look(item, kShapeMaterialStream);
   const auto family = static_cast<ShapeFamily>(index % kShapeFamilyCount);
@@ -1061,7 +1018,7 @@ Result<Asset> MakeProceduralRoom(uint64_t seed, int index, const std::string& ke
   if (options.texture_size < 4 || options.texture_size > 4096) {
     return InvalidArgumentError(fmt::format("{}: texture_size {} outside [4, 4096]", where, options.texture_size));
   }
-  const uint64_t item = Hash(seed, static_cast<uint64_t>(index));
+  const uint64_t item = MixSeed(seed, static_cast<uint64_t>(index));
   Rng geometry(item, kRoomGeometryStream);
   Rng look(item, kRoomMaterialStream);
   const RoomPlan plan = RandomPlan(geometry);
