@@ -14,7 +14,8 @@ find_package(fmt 9 REQUIRED)
 if(NOT TARGET PkgConfig::XXHASH)
   pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash>=0.8)
 endif()
-# solid::convert
 find_package(Threads REQUIRED)
 find_package(draco 1.5 CONFIG REQUIRED)
 find_package(TinyGLTF 2.7 CONFIG REQUIRED)
+# solid::render
+find_package(embree 3.13 CONFIG REQUIRED)
