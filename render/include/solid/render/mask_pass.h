@@ -1,0 +1,50 @@
+// The mask pass: one ray-cast pass over a layout's image that gives, for every placed
+// object, its visible mask, its full mask (the object with everything else hidden,
+// room included: solid-method.md 1.2), boxes, areas, occlusion, truncation, scale
+// class and viewpoint, plus the visible-id image and depth. No extra render per object.
+//
+// Per pixel centre, two rays leave the camera: one against the room shell (nearest
+// hit), and one against a top-level scene of the placed objects (Embree instances of
+// each model's cached scene) whose context filter records every object the ray
+// crosses and rejects each hit so that traversal continues. Every crossed object owns
+// the pixel in its full mask; the nearest crossing, when nearer than the room, is the
+// visible object. One sample per pixel, no anti-aliasing, as the reference's ID passes.
+//
+// Truncation (the share of an object outside the frame) needs the object beyond the
+// image: for an object whose box does not project entirely inside the image, rays are
+// cast against that object alone on a regular grid over its projected box (or a
+// 3x3-image window when the box straddles the camera plane), at most about 4096 of
+// them, and truncation = samples outside the image / all samples that hit. Objects
+// whose box projects inside the image have truncation 0 exactly.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "solid/formats/records.h"
+#include "solid/render/layout.h"
+
+namespace solid::render {
+
+struct MaskPassOptions {
+  int threads = 1;  // rows are split over this many threads
+};
+
+struct MaskPassResult {
+  int width = 0, height = 0;
+  // Row-major, 0 where the room (or nothing) is nearest, k + 1 where object k is.
+  std::vector<uint32_t> ids;
+  // Row-major distance along the camera's -Z axis to the nearest surface, metres;
+  // +infinity where the ray leaves the scene.
+  std::vector<float> depth;
+  // One per placed object, in placement order (ordinal = render id = k): mask fields
+  // through SetInstanceMasks, pose, size, distance, viewpoint and truncation.
+  // image_id = layout index.
+  std::vector<InstanceRecord> instances;
+  // Objects with at least params.min_visible_pixels visible pixels.
+  int visible_objects = 0;
+};
+
+Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels, const MaskPassOptions& options = {});
+
+}  // namespace solid::render

@@ -1,0 +1,413 @@
+#include "solid/render/layout.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "solid/formats/random.h"
+
+namespace solid::render {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+// Objects resting on the floor float this far above it: the shell test counts touching
+// as intersecting.
+constexpr double kFloorGap = 1e-3;
+
+enum Stream : uint64_t { kRoomStream = 1, kCameraStream = 2, kObjectStream = 3 };
+
+Mat3 CameraRotation(const Camera& c) {
+  const auto& a = c.world_from_camera;
+  return Mat3{{a[0], a[1], a[2], a[4], a[5], a[6], a[8], a[9], a[10]}};
+}
+
+}  // namespace
+
+bool LookAt(Vec3 eye, Vec3 target, double hfov_deg, int width, int height, Camera* camera) {
+  const Vec3 forward = target - eye;
+  const double horizontal = std::hypot(forward.x, forward.y);
+  if (horizontal < 1e-9 * Length(forward) || Length(forward) == 0) return false;
+  const Vec3 f = Normalize(forward);
+  const Vec3 right = Normalize(Cross(f, {0, 0, 1}));
+  const Vec3 up = Cross(right, f);
+  camera->fx = camera->fy = (width / 2.0) / std::tan(hfov_deg * kPi / 360.0);
+  camera->cx = width / 2.0;
+  camera->cy = height / 2.0;
+  camera->world_from_camera = {right.x, up.x, -f.x, eye.x, right.y, up.y, -f.y, eye.y, right.z, up.z, -f.z, eye.z};
+  return true;
+}
+
+Vec3 RayDirection(const Camera& camera, double u, double v) {
+  return CameraRotation(camera) * Vec3{(u - camera.cx) / camera.fx, -(v - camera.cy) / camera.fy, -1.0};
+}
+
+Vec3 CameraPosition(const Camera& camera) {
+  const auto& a = camera.world_from_camera;
+  return {a[3], a[7], a[11]};
+}
+
+bool Project(const Camera& camera, Vec3 p, double near, double* u, double* v) {
+  const Vec3 local = CameraRotation(camera).Transposed() * (p - CameraPosition(camera));
+  if (!(-local.z > near)) return false;
+  *u = camera.cx + camera.fx * local.x / -local.z;
+  *v = camera.cy - camera.fy * local.y / -local.z;
+  return true;
+}
+
+Result<std::unique_ptr<LayoutSampler>> LayoutSampler::Create(const LayoutParams& params,
+                                                             std::shared_ptr<AssetLibrary> library) {
+  SOLID_RETURN_IF_ERROR(CheckParams(params, "params"));
+  if (library->models().empty()) {
+    return InvalidArgumentError("the assets directory has no usable model (kind \"model\", status ok)");
+  }
+  std::unique_ptr<LayoutSampler> s(new LayoutSampler());
+  s->params_ = params;
+  s->library_ = std::move(library);
+  if (params.scene == SceneKind::kWhiteCube) {
+    SOLID_ASSIGN_OR_RETURN(s->white_cube_, RoomShell::WhiteCube(s->library_->device(), params));
+  } else if (s->library_->rooms().empty()) {
+    return InvalidArgumentError("scene.kind is \"rooms\" but the rooms directory has no usable room; "
+                                "pass --rooms DIR (e.g. from `solid convert procedural` or `solid convert scenenet`)");
+  }
+  return s;
+}
+
+Result<std::shared_ptr<const RoomShell>> LayoutSampler::Shell(size_t room_index) const {
+  {
+    std::lock_guard lock(rooms_mutex_);
+    const auto it = rooms_.find(room_index);
+    if (it != rooms_.end()) return it->second;
+  }
+  SOLID_ASSIGN_OR_RETURN(std::shared_ptr<const LoadedAsset> asset, library_->Room(room_index));
+  SOLID_ASSIGN_OR_RETURN(std::shared_ptr<const RoomShell> shell,
+                         RoomShell::FromAsset(std::move(asset), library_->device(), params_));
+  std::lock_guard lock(rooms_mutex_);
+  return rooms_.emplace(room_index, std::move(shell)).first->second;
+}
+
+namespace {
+
+// Everything one layout draw needs while placing objects.
+class Placer {
+ public:
+  Placer(const LayoutParams& p, const RoomShell& room, const Camera& camera, Rng& rng)
+      : p_(p), room_(room), camera_(camera), eye_(CameraPosition(camera)), rng_(rng) {
+    const int n = room.points();
+    k_max_ = 0;
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        if (room.Covered(i, j)) k_max_ = std::max(k_max_, static_cast<int>(std::floor(room.CeilingZ(i, j) / room.Z(1))));
+      }
+    }
+    k_max_ = std::min(k_max_, n - 1);
+  }
+
+  // One pose try: a centre for a box of `half` extents and `rotation`, or false.
+  bool TryPlace(const Mat3& rotation, Vec3 half, double size_m, bool cluster, bool occlude, bool depth_by_size,
+                const std::vector<PlacedObject>& placed, Vec3* centre, int64_t* proposals) {
+    const int n = room_.points();
+    // Cluster balls and the lattice cubes (squares for floor support) around them.
+    struct Ball {
+      Vec3 c;
+      double r;
+      int i0, i1, j0, j1, k0, k1;
+      uint64_t count;
+    };
+    std::vector<Ball> balls;
+    uint64_t total = 0;
+    const bool floor = p_.support == Support::kFloor;
+    if (cluster) {
+      for (const PlacedObject& o : placed) {
+        Ball b{o.box.center, o.box.HalfDiagonal() + p_.cluster_margin_m, 0, 0, 0, 0, 0, 0, 0};
+        auto range = [&](double c, double origin, double step, int* lo, int* hi) {
+          *lo = std::max(0, static_cast<int>(std::ceil((c - b.r - origin) / step)));
+          *hi = std::min(n - 1, static_cast<int>(std::floor((c + b.r - origin) / step)));
+        };
+        range(b.c.x, room_.X(0), room_.X(1) - room_.X(0), &b.i0, &b.i1);
+        range(b.c.y, room_.Y(0), room_.Y(1) - room_.Y(0), &b.j0, &b.j1);
+        if (floor) {
+          b.k0 = b.k1 = 0;
+        } else {
+          range(b.c.z, 0, room_.Z(1), &b.k0, &b.k1);
+          b.k1 = std::min(b.k1, k_max_);
+        }
+        if (b.i0 > b.i1 || b.j0 > b.j1 || b.k0 > b.k1) continue;
+        b.count = uint64_t(b.i1 - b.i0 + 1) * uint64_t(b.j1 - b.j0 + 1) * uint64_t(b.k1 - b.k0 + 1);
+        total += b.count;
+        balls.push_back(b);
+      }
+      if (balls.empty()) return false;
+    }
+    const double zhalf = std::fabs(rotation(2, 0)) * half.x + std::fabs(rotation(2, 1)) * half.y +
+                         std::fabs(rotation(2, 2)) * half.z;
+    for (int attempt = 0; attempt < p_.max_proposals; ++attempt) {
+      ++*proposals;
+      int i = 0, j = 0, k = 0;
+      if (cluster) {
+        // Uniform over the union of the cubes: pick a cube by its size, a point in it,
+        // and keep the point with probability 1 / (cubes containing it).
+        uint64_t pick = rng_.Index(total);
+        size_t b = 0;
+        while (pick >= balls[b].count) pick -= balls[b++].count;
+        const Ball& ball = balls[b];
+        i = ball.i0 + static_cast<int>(rng_.Index(ball.i1 - ball.i0 + 1));
+        j = ball.j0 + static_cast<int>(rng_.Index(ball.j1 - ball.j0 + 1));
+        k = ball.k0 + static_cast<int>(rng_.Index(ball.k1 - ball.k0 + 1));
+        int containing = 0;
+        for (const Ball& o : balls) {
+          containing += i >= o.i0 && i <= o.i1 && j >= o.j0 && j <= o.j1 && k >= o.k0 && k <= o.k1;
+        }
+        if (containing > 1 && !rng_.Chance(1.0 / containing)) continue;
+      } else {
+        i = static_cast<int>(rng_.Index(n));
+        j = static_cast<int>(rng_.Index(n));
+        k = floor ? 0 : static_cast<int>(rng_.Index(k_max_ + 1));
+      }
+      if (!room_.Covered(i, j)) continue;
+      Vec3 c{room_.X(i), room_.Y(j), floor ? room_.FloorZ(i, j) + zhalf + kFloorGap : room_.Z(k)};
+      if (!floor && (c.z < room_.FloorZ(i, j) || c.z > room_.CeilingZ(i, j))) continue;
+      double u = 0, v = 0;
+      if (!Project(camera_, c, p_.camera_near_m, &u, &v)) continue;
+      if (std::fabs(u - camera_.cx) > p_.frustum_inset * camera_.cx ||
+          std::fabs(v - camera_.cy) > p_.frustum_inset * camera_.cy) {
+        continue;
+      }
+      if (!(std::hypot(c.x - eye_.x, c.y - eye_.y) > p_.min_hdist_m)) continue;
+      if (cluster && !NearSome(c, balls)) continue;
+      if (occlude && !Occludes(c, placed)) continue;
+      if (depth_by_size && !InDepthBand(c, size_m, placed)) continue;
+      const Obb box{c, rotation, half};
+      if (!room_.InsideValidVolume(box)) continue;
+      bool free = true;
+      for (const PlacedObject& o : placed) {
+        if (Intersects(box, o.box)) {
+          free = false;
+          break;
+        }
+      }
+      if (!free || room_.TouchesShell(box)) continue;
+      *centre = c;
+      return true;
+    }
+    return false;
+  }
+
+ private:
+  template <typename Balls>
+  static bool NearSome(Vec3 c, const Balls& balls) {
+    for (const auto& b : balls) {
+      if (Length(c - b.c) < b.r) return true;
+    }
+    return false;
+  }
+
+  bool Occludes(Vec3 c, const std::vector<PlacedObject>& placed) const {
+    for (const PlacedObject& o : placed) {
+      if (p_.occlusion_test == OcclusionTest::kRayObb) {
+        // The half-line from the camera through c, t > 0; c is at t = 1.
+        double t0 = 0, t1 = 0;
+        if (!RayInterval(eye_, c - eye_, o.box, &t0, &t1) || t1 <= 0) continue;
+        if (p_.occlude_side == OccludeSide::kAny || (p_.occlude_side == OccludeSide::kFront && t0 > 1) ||
+            (p_.occlude_side == OccludeSide::kBehind && t1 < 1)) {
+          return true;
+        }
+      } else {
+        double u = 0, v = 0;
+        if (!Project(camera_, c, p_.camera_near_m, &u, &v)) return false;
+        double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+        bool all_in_front = true;
+        for (int k = 0; k < 8 && all_in_front; ++k) {
+          double cu = 0, cv = 0;
+          all_in_front = Project(camera_, o.box.Corner(k), p_.camera_near_m, &cu, &cv);
+          u0 = std::min(u0, cu);
+          u1 = std::max(u1, cu);
+          v0 = std::min(v0, cv);
+          v1 = std::max(v1, cv);
+        }
+        if (!all_in_front || u < u0 || u > u1 || v < v0 || v > v1) continue;
+        const double dc = Length(c - eye_), doj = Length(o.box.center - eye_);
+        if (p_.occlude_side == OccludeSide::kAny || (p_.occlude_side == OccludeSide::kFront && dc < doj) ||
+            (p_.occlude_side == OccludeSide::kBehind && dc > doj)) {
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  // Larger objects sit farther: the camera distance of c lies strictly between those
+  // of the placed objects with the next smaller and the next larger size.
+  bool InDepthBand(Vec3 c, double size_m, const std::vector<PlacedObject>& placed) const {
+    const PlacedObject* smaller = nullptr;
+    const PlacedObject* larger = nullptr;
+    for (const PlacedObject& o : placed) {
+      if (o.size_m < size_m && (smaller == nullptr || o.size_m > smaller->size_m)) smaller = &o;
+      if (o.size_m > size_m && (larger == nullptr || o.size_m < larger->size_m)) larger = &o;
+    }
+    const double d = Length(c - eye_);
+    if (smaller != nullptr && !(d > Length(smaller->box.center - eye_))) return false;
+    if (larger != nullptr && !(d < Length(larger->box.center - eye_))) return false;
+    return true;
+  }
+
+  const LayoutParams& p_;
+  const RoomShell& room_;
+  const Camera& camera_;
+  Vec3 eye_;
+  Rng& rng_;
+  int k_max_ = 0;
+};
+
+// Camera draws (solid-method.md 2.3, D9): a floor-covered lattice column in the ring,
+// a height above that column's floor, a look-at point, and in rooms a clearance test.
+bool SampleCamera(const LayoutParams& p, const RoomShell& room, bool test_walls, Rng& rng, Camera* camera,
+                  int* draws) {
+  std::vector<std::pair<int, int>> ring;
+  const int n = room.points();
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const double r = std::hypot(room.X(i), room.Y(j));
+      if (room.Covered(i, j) && r >= p.camera_ring_m.lo && r <= p.camera_ring_m.hi) ring.emplace_back(i, j);
+    }
+  }
+  if (ring.empty()) return false;
+  RTCScene walls = reinterpret_cast<RTCScene>(room.walls_scene());
+  for (*draws = 1; *draws <= p.camera_max_draws; ++*draws) {
+    const auto [i, j] = ring[rng.Index(ring.size())];
+    const double h0 = std::max(p.camera_height_m.lo, room.FloorZ(i, j) + 0.001);
+    const double z = rng.Uniform(h0, p.camera_height_m.hi);
+    const Vec3 target{rng.Uniform(p.camera_look_xy_m.lo, p.camera_look_xy_m.hi),
+                      rng.Uniform(p.camera_look_xy_m.lo, p.camera_look_xy_m.hi),
+                      rng.Uniform(p.camera_look_z_m.lo, p.camera_look_z_m.hi)};
+    if (h0 > p.camera_height_m.hi || z > room.CeilingZ(i, j)) continue;
+    const Vec3 eye{room.X(i), room.Y(j), z};
+    if (!LookAt(eye, target, p.camera_hfov_deg, p.width, p.height, camera)) continue;
+    if (!test_walls) return true;
+    bool clear = true;
+    const int m = p.camera_clearance_rays;
+    for (int b = 0; b < m && clear; ++b) {
+      for (int a = 0; a < m && clear; ++a) {
+        const double u = m == 1 ? p.width / 2.0 : p.width * a / double(m - 1);
+        const double v = m == 1 ? p.height / 2.0 : p.height * b / double(m - 1);
+        const Vec3 d = Normalize(RayDirection(*camera, u, v));
+        RTCRay ray{};
+        ray.org_x = static_cast<float>(eye.x);
+        ray.org_y = static_cast<float>(eye.y);
+        ray.org_z = static_cast<float>(eye.z);
+        ray.dir_x = static_cast<float>(d.x);
+        ray.dir_y = static_cast<float>(d.y);
+        ray.dir_z = static_cast<float>(d.z);
+        ray.tnear = 0;
+        ray.tfar = static_cast<float>(p.camera_clearance_m);
+        ray.mask = UINT32_MAX;
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        rtcOccluded1(walls, &context, &ray);
+        clear = ray.tfar >= 0;  // Embree sets tfar to -inf on a hit
+      }
+    }
+    if (clear) return true;
+  }
+  *draws = p.camera_max_draws;
+  return false;
+}
+
+Mat3 SampleRotation(const LayoutParams& p, Rng& rng) {
+  if (p.rotation_axes == RotationAxes::kZ) return RotationEulerXyz(0, 0, rng.Uniform(-kPi, kPi));
+  const double x = rng.Uniform(-kPi, kPi), y = rng.Uniform(-kPi, kPi), z = rng.Uniform(-kPi, kPi);
+  return RotationEulerXyz(x, y, z);
+}
+
+double SampleSize(const ScaleLaw& law, Rng& rng) {
+  if (!law.mixture) return rng.Uniform(law.buckets[0].size_m.lo, law.buckets[0].size_m.hi);
+  const double u = rng.Uniform();
+  double acc = 0;
+  const ScaleBucket* chosen = &law.buckets.back();
+  for (const ScaleBucket& b : law.buckets) {
+    acc += b.probability;
+    if (u < acc) {
+      chosen = &b;
+      break;
+    }
+  }
+  return rng.Uniform(chosen->size_m.lo, chosen->size_m.hi);
+}
+
+}  // namespace
+
+Result<Layout> LayoutSampler::Sample(uint64_t dataset_seed, int64_t index, int restart) const {
+  Layout layout;
+  layout.index = index;
+  layout.seed = MixSeed(dataset_seed, static_cast<uint64_t>(index));
+  layout.restart = restart;
+  layout.width = params_.width;
+  layout.height = params_.height;
+  layout.near = params_.camera_near_m;
+  const uint64_t draw_seed = MixSeed(layout.seed, static_cast<uint64_t>(restart));
+
+  if (params_.scene == SceneKind::kWhiteCube) {
+    layout.room = white_cube_;
+  } else {
+    Rng room_rng(draw_seed, kRoomStream);
+    SOLID_ASSIGN_OR_RETURN(layout.room, Shell(room_rng.Index(library_->rooms().size())));
+  }
+
+  Rng camera_rng(draw_seed, kCameraStream);
+  if (!SampleCamera(params_, *layout.room, params_.scene == SceneKind::kRooms, camera_rng, &layout.camera,
+                    &layout.stats.camera_draws)) {
+    layout.rejection = fmt::format("no camera pose in room {} after {} draws (ring, height and clearance)",
+                                   layout.room->key(), layout.stats.camera_draws);
+    return layout;
+  }
+
+  Rng rng(draw_seed, kObjectStream);
+  const auto& models = library_->models();
+  const int attempts =
+      static_cast<int>(std::floor(rng.Uniform(params_.attempts.lo, params_.attempts.hi + 1)));
+  layout.stats.attempts = attempts;
+  Placer placer(params_, *layout.room, layout.camera, rng);
+  size_t previous = SIZE_MAX;
+  for (int a = 0; a < attempts; ++a) {
+    const size_t model = previous != SIZE_MAX && rng.Chance(params_.reuse_prob) ? previous : rng.Index(models.size());
+    previous = model;
+    SOLID_ASSIGN_OR_RETURN(std::shared_ptr<const LoadedAsset> asset, library_->Model(model));
+    const double extent = asset->largest_extent();
+    if (!(extent > 0)) return InvalidArgumentError("model " + asset->key() + " has no extent");
+    for (int t = 0; t < params_.max_pose_tries; ++t) {
+      ++layout.stats.pose_tries;
+      const Mat3 rotation = SampleRotation(params_, rng);
+      const double size = SampleSize(params_.scale, rng);
+      const double scale = size / extent;
+      const bool placed_any = !layout.objects.empty();
+      const bool cluster = placed_any && rng.Chance(params_.cluster_prob);
+      const bool occlude = placed_any && rng.Chance(params_.occlude_prob);
+      const bool depth = occlude && rng.Chance(params_.depth_by_size_prob);
+      const Vec3 half = asset->half_extents() * scale;
+      Vec3 centre;
+      if (placer.TryPlace(rotation, half, size, cluster, occlude, depth, layout.objects, &centre,
+                          &layout.stats.proposals)) {
+        PlacedObject o;
+        o.model_index = model;
+        o.model_key = models[model].key;
+        o.asset = asset;
+        o.rotation = rotation;
+        o.size_m = size;
+        o.scale = scale;
+        o.position = centre;
+        o.box = Obb{centre, rotation, half};
+        layout.objects.push_back(std::move(o));
+        break;
+      }
+    }
+  }
+  layout.stats.placed = static_cast<int>(layout.objects.size());
+  if (layout.objects.empty()) layout.rejection = fmt::format("no object placed in {} attempts", attempts);
+  return layout;
+}
+
+}  // namespace solid::render

@@ -1,0 +1,233 @@
+#include "solid/render/mask_pass.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+#include <fmt/format.h>
+
+namespace solid::render {
+namespace {
+
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+constexpr int kMaxTruncationSamples = 4096;
+
+// The intersect context of an object ray: Embree hands it back to the filter, which
+// records what the ray crosses. Embree's context must be the first member.
+struct CrossingContext {
+  RTCIntersectContext base;
+  uint32_t pixel = 0;
+  float nearest_t = kInfinity;
+  uint32_t nearest = RTC_INVALID_GEOMETRY_ID;
+  uint32_t* last_pixel = nullptr;  // per object: the last pixel marked, for de-duplication
+  uint8_t* const* full = nullptr;  // per object: its full mask, row-major
+};
+
+void RecordCrossings(const RTCFilterFunctionNArguments* args) {
+  auto* ctx = reinterpret_cast<CrossingContext*>(const_cast<RTCIntersectContext*>(args->context));
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    // During the filter call Embree has set the ray's tfar to the candidate hit's distance.
+    const float t = RTCRayN_tfar(args->ray, args->N, i);
+    const uint32_t object = RTCHitN_instID(args->hit, args->N, i, 0);
+    if (t < ctx->nearest_t) {
+      ctx->nearest_t = t;
+      ctx->nearest = object;
+    }
+    if (ctx->last_pixel[object] != ctx->pixel) {
+      ctx->last_pixel[object] = ctx->pixel;
+      ctx->full[object][ctx->pixel] = 1;
+    }
+    args->valid[i] = 0;  // reject: traversal goes on to farther surfaces
+  }
+}
+
+RTCRayHit MakeRay(Vec3 origin, Vec3 direction, float tnear) {
+  RTCRayHit r{};
+  r.ray.org_x = static_cast<float>(origin.x);
+  r.ray.org_y = static_cast<float>(origin.y);
+  r.ray.org_z = static_cast<float>(origin.z);
+  r.ray.dir_x = static_cast<float>(direction.x);
+  r.ray.dir_y = static_cast<float>(direction.y);
+  r.ray.dir_z = static_cast<float>(direction.z);
+  r.ray.tnear = tnear;
+  r.ray.tfar = kInfinity;
+  r.ray.mask = UINT32_MAX;
+  r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  return r;
+}
+
+// A top-level scene of the layout's objects, instance id = placement index.
+class ObjectScene {
+ public:
+  ObjectScene(RTCDevice device, const Layout& layout) : scene_(rtcNewScene(device)) {
+    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+    for (size_t k = 0; k < layout.objects.size(); ++k) {
+      const PlacedObject& o = layout.objects[k];
+      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(g, reinterpret_cast<RTCScene>(o.asset->scene()));
+      const Affine3x4 a = o.WorldFromObject();
+      float m[12];
+      for (int i = 0; i < 12; ++i) m[i] = static_cast<float>(a[i]);
+      rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, m);
+      rtcCommitGeometry(g);
+      rtcAttachGeometryByID(scene_, g, static_cast<unsigned>(k));
+      rtcReleaseGeometry(g);
+    }
+    rtcCommitScene(scene_);
+  }
+  ~ObjectScene() { rtcReleaseScene(scene_); }
+  ObjectScene(const ObjectScene&) = delete;
+  ObjectScene& operator=(const ObjectScene&) = delete;
+  RTCScene get() const { return scene_; }
+
+ private:
+  RTCScene scene_;
+};
+
+// See the header: the share of the object's silhouette outside the image.
+double Truncation(const Layout& layout, const PlacedObject& o) {
+  const Camera& cam = layout.camera;
+  const double w = layout.width, h = layout.height;
+  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+  bool in_front = true;
+  for (int c = 0; c < 8; ++c) {
+    double u = 0, v = 0;
+    if (!Project(cam, o.box.Corner(c), layout.near, &u, &v)) {
+      in_front = false;
+      break;
+    }
+    u0 = std::min(u0, u);
+    u1 = std::max(u1, u);
+    v0 = std::min(v0, v);
+    v1 = std::max(v1, v);
+  }
+  if (in_front && u0 >= 0 && u1 <= w && v0 >= 0 && v1 <= h) return 0;
+  if (!in_front) {
+    u0 = -w, u1 = 2 * w, v0 = -h, v1 = 2 * h;
+  } else {
+    u0 = std::max(u0, -w), u1 = std::min(u1, 2 * w), v0 = std::max(v0, -h), v1 = std::min(v1, 2 * h);
+  }
+  const double area = (u1 - u0) * (v1 - v0);
+  if (!(area > 0)) return 0;
+  const double stride = std::max(1.0, std::sqrt(area / kMaxTruncationSamples));
+  // Rays in the object's own frame against its scene alone.
+  const Mat3 to_object = o.rotation.Transposed();
+  const Vec3 eye = CameraPosition(cam);
+  const Vec3 origin = to_object * (eye - o.position) * (1.0 / o.scale);
+  RTCScene scene = reinterpret_cast<RTCScene>(o.asset->scene());
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  int64_t inside = 0, outside = 0;
+  for (double v = v0 + stride / 2; v < v1; v += stride) {
+    for (double u = u0 + stride / 2; u < u1; u += stride) {
+      const Vec3 d = to_object * Normalize(RayDirection(cam, u, v)) * (1.0 / o.scale);
+      RTCRayHit r = MakeRay(origin, d, static_cast<float>(layout.near));
+      rtcOccluded1(scene, &context, &r.ray);
+      if (r.ray.tfar >= 0) continue;  // no hit
+      (u >= 0 && u < w && v >= 0 && v < h ? inside : outside) += 1;
+    }
+  }
+  return inside + outside == 0 ? 0.0 : static_cast<double>(outside) / static_cast<double>(inside + outside);
+}
+
+}  // namespace
+
+Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels, const MaskPassOptions& options) {
+  if (layout.room == nullptr) return InvalidArgumentError("mask pass: the layout has no room");
+  const int w = layout.width, h = layout.height;
+  const size_t pixels = static_cast<size_t>(w) * h;
+  const size_t objects = layout.objects.size();
+  MaskPassResult out;
+  out.width = w;
+  out.height = h;
+  out.ids.assign(pixels, 0);
+  out.depth.assign(pixels, kInfinity);
+  std::vector<std::vector<uint8_t>> full(objects, std::vector<uint8_t>(pixels, 0));
+  std::vector<uint8_t*> full_rows(objects);
+  for (size_t k = 0; k < objects; ++k) full_rows[k] = full[k].data();
+
+  const ObjectScene object_scene(layout.room->device()->handle(), layout);
+  RTCScene room = reinterpret_cast<RTCScene>(layout.room->scene());
+  const Camera& cam = layout.camera;
+  const Vec3 eye = CameraPosition(cam);
+  const float tnear = static_cast<float>(layout.near);
+
+  auto trace_rows = [&](int y_begin, int y_end) {
+    std::vector<uint32_t> last_pixel(objects, UINT32_MAX);
+    CrossingContext ctx;
+    rtcInitIntersectContext(&ctx.base);
+    ctx.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    ctx.base.filter = RecordCrossings;
+    ctx.last_pixel = last_pixel.data();
+    ctx.full = full_rows.data();
+    RTCIntersectContext room_ctx;
+    rtcInitIntersectContext(&room_ctx);
+    room_ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (int y = y_begin; y < y_end; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const uint32_t pixel = static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x);
+        const Vec3 raw = RayDirection(cam, x + 0.5, y + 0.5);
+        const double length = Length(raw);
+        const Vec3 d = raw * (1.0 / length);
+        // Depth along -Z: raw has camera-space z = -1, so depth = t / length.
+        RTCRayHit room_ray = MakeRay(eye, d, tnear);
+        rtcIntersect1(room, &room_ctx, &room_ray);
+        const float room_t = room_ray.hit.geomID != RTC_INVALID_GEOMETRY_ID ? room_ray.ray.tfar : kInfinity;
+        float nearest_t = room_t;
+        if (objects > 0) {
+          RTCRayHit object_ray = MakeRay(eye, d, tnear);
+          ctx.pixel = pixel;
+          ctx.nearest_t = kInfinity;
+          ctx.nearest = RTC_INVALID_GEOMETRY_ID;
+          rtcIntersect1(object_scene.get(), &ctx.base, &object_ray);
+          if (ctx.nearest != RTC_INVALID_GEOMETRY_ID && ctx.nearest_t < room_t) {
+            out.ids[pixel] = ctx.nearest + 1;
+            nearest_t = ctx.nearest_t;
+          }
+        }
+        out.depth[pixel] = nearest_t == kInfinity ? kInfinity : static_cast<float>(nearest_t / length);
+      }
+    }
+  };
+  const int threads = std::clamp(options.threads, 1, std::max(1, h));
+  if (threads == 1) {
+    trace_rows(0, h);
+  } else {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) pool.emplace_back(trace_rows, h * t / threads, h * (t + 1) / threads);
+    for (std::thread& t : pool) t.join();
+  }
+
+  const std::vector<rle::IdRle> visible = rle::EncodeIdImageRowMajor(out.ids, h, w);
+  const rle::Rle empty = rle::EncodeRowMajor(std::vector<uint8_t>(pixels, 0), h, w);
+  out.instances.resize(objects);
+  for (size_t k = 0; k < objects; ++k) {
+    const PlacedObject& o = layout.objects[k];
+    InstanceRecord& r = out.instances[k];
+    r.image_id = layout.index;
+    r.ordinal = static_cast<int32_t>(k);
+    r.model_key = o.model_key;
+    const auto it = std::lower_bound(visible.begin(), visible.end(), static_cast<uint32_t>(k + 1),
+                                     [](const rle::IdRle& e, uint32_t id) { return e.id < id; });
+    const rle::Rle& vis = it != visible.end() && it->id == k + 1 ? it->rle : empty;
+    const rle::Rle full_rle = rle::EncodeRowMajor(full[k], h, w);
+    SOLID_RETURN_IF_ERROR(SetInstanceMasks(vis, full_rle, &r).WithContext(
+        fmt::format("layout {} object {} ({})", layout.index, k, o.model_key)));
+    r.world_from_object = o.WorldFromObject();
+    r.object_scale = o.size_m;
+    r.camera_distance = Length(eye - o.position);
+    const Vec3 view = o.rotation.Transposed() * (eye - o.position);
+    r.view_azimuth = std::atan2(view.y, view.x);
+    r.view_elevation = std::atan2(view.z, std::hypot(view.x, view.y));
+    r.truncation = Truncation(layout, o);
+    if (r.visible_area >= static_cast<uint64_t>(std::max(1, min_visible_pixels))) ++out.visible_objects;
+  }
+  return out;
+}
+
+}  // namespace solid::render

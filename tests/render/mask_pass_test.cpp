@@ -1,0 +1,194 @@
+// Canonical scenes with exact expected masks: pixel (x, y) belongs to a camera-facing
+// rectangle exactly when the ray through its centre crosses it, which the tests
+// compute analytically. Scenes are chosen so that no pixel centre lies on an edge.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "solid/formats/rle.h"
+#include "solid/render/mask_pass.h"
+
+namespace solid::render {
+namespace {
+
+constexpr int kWidth = 64, kHeight = 48;
+// fx = fy = 64 px: a point (X, Z) at depth D lands at u = 32 + 64 X / D, v = 24 - 64 Z / D.
+const double kHfovDeg = 2 * std::atan(0.5) * 180 / std::numbers::pi;
+
+std::shared_ptr<Device> TestDevice() {
+  static std::shared_ptr<Device> device = Device::Create().value();
+  return device;
+}
+
+// An axis-aligned box of the given size (world x, y, z), as a glTF asset (Y up).
+gltf::Asset BoxAsset(double sx, double sy, double sz) {
+  gltf::Primitive p;
+  for (int i = 0; i < 8; ++i) {
+    const double x = (i & 1 ? 0.5 : -0.5) * sx, y = (i & 2 ? 0.5 : -0.5) * sy, z = (i & 4 ? 0.5 : -0.5) * sz;
+    // world (x, y, z) is glTF (x, z, -y)
+    p.positions.insert(p.positions.end(), {float(x), float(z), float(-y)});
+  }
+  p.indices = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+  gltf::Asset a;
+  a.nodes.push_back({"box", {p}, nlohmann::json::object()});
+  return a;
+}
+
+// A rectangle of width sx (world x) and height sz (world z) in the plane y = 0.
+gltf::Asset QuadAsset(double sx, double sz) {
+  gltf::Primitive p;
+  for (int i = 0; i < 4; ++i) {
+    const double x = (i & 1 ? 0.5 : -0.5) * sx, z = (i & 2 ? 0.5 : -0.5) * sz;
+    p.positions.insert(p.positions.end(), {float(x), float(z), 0.0f});
+  }
+  p.indices = {0, 1, 3, 0, 3, 2};
+  gltf::Asset a;
+  a.nodes.push_back({"quad", {p}, nlohmann::json::object()});
+  return a;
+}
+
+class Scene {
+ public:
+  Scene() {
+    LayoutParams params;
+    params.scene = SceneKind::kWhiteCube;
+    layout_.room = RoomShell::WhiteCube(TestDevice(), params).value();
+    layout_.width = kWidth;
+    layout_.height = kHeight;
+    layout_.near = 0.1;
+    EXPECT_TRUE(LookAt({0, -5, 1}, {0, 0, 1}, kHfovDeg, kWidth, kHeight, &layout_.camera));
+  }
+  void Add(const gltf::Asset& asset, Vec3 position) {
+    PlacedObject o;
+    o.asset = LoadedAsset::Build(TestDevice(), "object", asset, true).value();
+    o.model_key = "test/" + std::to_string(layout_.objects.size());
+    o.scale = 1;
+    o.size_m = o.asset->largest_extent();
+    o.position = position;
+    o.box = Obb{position, Mat3{}, o.asset->half_extents()};
+    layout_.objects.push_back(o);
+  }
+  MaskPassResult Run(int threads = 1) { return RunMaskPass(layout_, 1, MaskPassOptions{threads}).value(); }
+  Layout& layout() { return layout_; }
+
+ private:
+  Layout layout_;
+};
+
+// The expected mask of a camera-facing rectangle x in [x0, x1], z in [z0, z1] at
+// distance `depth` in front of the camera at (0, -5, 1).
+std::vector<uint8_t> RectMask(double x0, double x1, double z0, double z1, double depth) {
+  std::vector<uint8_t> mask(kWidth * kHeight, 0);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const double wx = (x + 0.5 - 32) * depth / 64, wz = 1 + (24 - (y + 0.5)) * depth / 64;
+      mask[y * kWidth + x] = wx >= x0 && wx <= x1 && wz >= z0 && wz <= z1;
+    }
+  }
+  return mask;
+}
+
+std::vector<uint8_t> AndNot(std::vector<uint8_t> a, const std::vector<uint8_t>& b) {
+  for (size_t i = 0; i < a.size(); ++i) a[i] = a[i] && !b[i];
+  return a;
+}
+
+std::string Rle(const std::vector<uint8_t>& mask) { return rle::ToString(rle::EncodeRowMajor(mask, kHeight, kWidth)); }
+
+TEST(MaskPass, OneCubeVisibleEqualsFullAndDepthIsExact) {
+  Scene scene;
+  scene.Add(BoxAsset(1, 1, 1), {0, 0, 1});
+  const MaskPassResult r = scene.Run();
+  ASSERT_EQ(r.instances.size(), 1u);
+  const InstanceRecord& cube = r.instances[0];
+  // The silhouette is the front face, 4.5 m away.
+  const auto expected = RectMask(-0.5, 0.5, 0.5, 1.5, 4.5);
+  EXPECT_EQ(cube.visible_rle, Rle(expected));
+  EXPECT_EQ(cube.full_rle, Rle(expected));
+  EXPECT_EQ(cube.visible_area, 196u);
+  EXPECT_EQ(cube.visible_box, (rle::Box{25, 17, 14, 14}));
+  ASSERT_TRUE(cube.occlusion.has_value());
+  EXPECT_EQ(*cube.occlusion, 0.0);
+  EXPECT_EQ(cube.truncation, 0.0);
+  EXPECT_EQ(r.visible_objects, 1);
+  EXPECT_NEAR(r.depth[24 * kWidth + 32], 4.5, 1e-4);
+  EXPECT_EQ(r.ids[24 * kWidth + 32], 1u);
+  // The background is the white cube's far wall at y = 6, 11 m away.
+  EXPECT_EQ(r.ids[2 * kWidth + 2], 0u);
+  EXPECT_NEAR(r.depth[24 * kWidth + 2], 11.0, 1e-3);
+  EXPECT_NEAR(cube.camera_distance, 5.0, 1e-12);
+  // Seen from -Y in the object's frame: azimuth -90 degrees, elevation 0.
+  EXPECT_NEAR(cube.view_azimuth, -std::numbers::pi / 2, 1e-12);
+  EXPECT_NEAR(cube.view_elevation, 0.0, 1e-12);
+}
+
+TEST(MaskPass, RearQuadKeepsItsWholeFullMaskAndLosesTheOverlap) {
+  Scene scene;
+  scene.Add(QuadAsset(1, 1), {-0.25, -1, 1});  // 4 m away
+  scene.Add(QuadAsset(1, 1), {0.25, 0, 1});    // 5 m away
+  const MaskPassResult r = scene.Run();
+  const auto front = RectMask(-0.75, 0.25, 0.5, 1.5, 4);
+  const auto rear = RectMask(-0.25, 0.75, 0.5, 1.5, 5);
+  EXPECT_EQ(r.instances[0].visible_rle, Rle(front));
+  EXPECT_EQ(r.instances[0].full_rle, Rle(front));
+  EXPECT_EQ(r.instances[1].full_rle, Rle(rear));
+  EXPECT_EQ(r.instances[1].visible_rle, Rle(AndNot(rear, front)));
+  const double n_f = r.instances[1].full_area, n_p = r.instances[1].visible_area;
+  EXPECT_GT(n_f, n_p);
+  EXPECT_EQ(*r.instances[1].occlusion, (n_f - n_p) / n_f);
+  EXPECT_EQ(*r.instances[0].occlusion, 0.0);
+}
+
+TEST(MaskPass, FullyOccludedObjectHasNoVisiblePixels) {
+  Scene scene;
+  scene.Add(QuadAsset(1, 1), {0, -1, 1});
+  scene.Add(QuadAsset(0.4, 0.4), {0, 1, 1});  // behind the first, inside its shadow
+  const MaskPassResult r = scene.Run();
+  const InstanceRecord& hidden = r.instances[1];
+  EXPECT_EQ(hidden.visible_area, 0u);
+  EXPECT_EQ(hidden.full_rle, Rle(RectMask(-0.2, 0.2, 0.8, 1.2, 6)));
+  EXPECT_GT(hidden.full_area, 0u);
+  EXPECT_EQ(*hidden.occlusion, 1.0);
+  EXPECT_FALSE(hidden.scale_class.has_value());
+  EXPECT_EQ(r.visible_objects, 1);
+}
+
+TEST(MaskPass, ObjectCrossingTheBorderIsTruncatedNotOccluded) {
+  Scene scene;
+  // Centred on the right image edge (u = 64 at x = 2.5, 5 m away): half of it is outside.
+  scene.Add(QuadAsset(1, 1), {2.5, 0, 1});
+  const MaskPassResult r = scene.Run();
+  const InstanceRecord& q = r.instances[0];
+  EXPECT_EQ(q.full_rle, Rle(RectMask(2.0, 3.0, 0.5, 1.5, 5)));
+  EXPECT_EQ(q.visible_rle, q.full_rle);
+  EXPECT_EQ(*q.occlusion, 0.0);  // clipping at the border is not occlusion
+  EXPECT_NEAR(q.truncation, 0.5, 0.05);
+}
+
+TEST(MaskPass, ObjectBehindAWallIsInvisibleButKeepsItsFullMask) {
+  Scene scene;
+  scene.Add(QuadAsset(1, 1), {0, 8, 1});  // beyond the white cube's wall at y = 6
+  const MaskPassResult r = scene.Run();
+  const InstanceRecord& q = r.instances[0];
+  EXPECT_EQ(q.visible_area, 0u);
+  EXPECT_EQ(q.full_rle, Rle(RectMask(-0.5, 0.5, 0.5, 1.5, 13)));
+  EXPECT_EQ(*q.occlusion, 1.0);
+  EXPECT_EQ(r.visible_objects, 0);
+}
+
+TEST(MaskPass, ThreadCountDoesNotChangeAnything) {
+  Scene scene;
+  scene.Add(QuadAsset(1, 1), {-0.25, -1, 1});
+  scene.Add(BoxAsset(0.7, 0.5, 1.2), {0.4, 0.5, 0.9});
+  const MaskPassResult one = scene.Run(1), three = scene.Run(3);
+  EXPECT_EQ(one.ids, three.ids);
+  EXPECT_EQ(one.depth, three.depth);
+  for (size_t k = 0; k < one.instances.size(); ++k) {
+    EXPECT_EQ(one.instances[k].visible_rle, three.instances[k].visible_rle);
+    EXPECT_EQ(one.instances[k].full_rle, three.instances[k].full_rle);
+  }
+}
+
+}  // namespace
+}  // namespace solid::render
