@@ -17,8 +17,16 @@ Command AddInspect(CLI::App& app);
 Command AddValidate(CLI::App& app);
 Command AddIndex(CLI::App& app);
 Command AddConvert(CLI::App& app);
+Command AddSample(CLI::App& app);
 
 // Prints "solid: <message>" on stderr and returns the exit code for the status.
 int Fail(const Status& status);
 
 }  // namespace solid::cli
+
+// SOLID_ASSIGN_OR_RETURN for command bodies: on error, print it and return its exit code.
+#define SOLID_ASSIGN_OR_RETURN_EXIT(lhs, expr)                                         \
+  auto SOLID_STATUS_CONCAT(solid_exit_, __LINE__) = (expr);                            \
+  if (!SOLID_STATUS_CONCAT(solid_exit_, __LINE__).ok())                                \
+    return ::solid::cli::Fail(SOLID_STATUS_CONCAT(solid_exit_, __LINE__).status());    \
+  lhs = std::move(SOLID_STATUS_CONCAT(solid_exit_, __LINE__)).value()

@@ -418,28 +418,7 @@ Result<std::vector<uint8_t>> WriteGlbImpl(const Asset& asset, const DracoOptions
     gltf["buffers"] = json::array({{{"byteLength", data.size()}}});
   }
 
-  std::string text = gltf.dump();  // object keys sorted: the same asset gives the same bytes
-  text.resize((text.size() + 3) & ~size_t{3}, ' ');
-
-  const uint64_t total =
-      kGlbHeaderSize + kChunkHeaderSize + text.size() + (data.empty() ? 0 : kChunkHeaderSize + data.size());
-  if (total > std::numeric_limits<uint32_t>::max()) {
-    return LimitExceededError(fmt::format("GLB would be {} bytes (limit 4 GiB)", total));
-  }
-  std::vector<uint8_t> out;
-  out.reserve(total);
-  AppendU32(out, kGlbMagic);
-  AppendU32(out, 2);
-  AppendU32(out, static_cast<uint32_t>(total));
-  AppendU32(out, static_cast<uint32_t>(text.size()));
-  AppendU32(out, kChunkJson);
-  out.insert(out.end(), text.begin(), text.end());
-  if (!data.empty()) {
-    AppendU32(out, static_cast<uint32_t>(data.size()));
-    AppendU32(out, kChunkBin);
-    out.insert(out.end(), data.begin(), data.end());
-  }
-  return out;
+  return PackGlb(gltf, data);
 }
 
 // ---------------------------------------------------------------------------
@@ -949,6 +928,32 @@ Result<Asset> ReadGlbImpl(std::span<const uint8_t> bytes) {
 }
 
 }  // namespace
+
+Result<std::vector<uint8_t>> PackGlb(const json& gltf, std::span<const uint8_t> data) {
+  SOLID_CHECK(data.size() % 4 == 0);
+  std::string text = gltf.dump();  // object keys sorted: the same document gives the same bytes
+  text.resize((text.size() + 3) & ~size_t{3}, ' ');
+
+  const uint64_t total =
+      kGlbHeaderSize + kChunkHeaderSize + text.size() + (data.empty() ? 0 : kChunkHeaderSize + data.size());
+  if (total > std::numeric_limits<uint32_t>::max()) {
+    return LimitExceededError(fmt::format("GLB would be {} bytes (limit 4 GiB)", total));
+  }
+  std::vector<uint8_t> out;
+  out.reserve(total);
+  AppendU32(out, kGlbMagic);
+  AppendU32(out, 2);
+  AppendU32(out, static_cast<uint32_t>(total));
+  AppendU32(out, static_cast<uint32_t>(text.size()));
+  AppendU32(out, kChunkJson);
+  out.insert(out.end(), text.begin(), text.end());
+  if (!data.empty()) {
+    AppendU32(out, static_cast<uint32_t>(data.size()));
+    AppendU32(out, kChunkBin);
+    out.insert(out.end(), data.begin(), data.end());
+  }
+  return out;
+}
 
 Result<std::vector<uint8_t>> WriteGlb(const Asset& asset, const DracoOptions& options) {
   try {

@@ -10,6 +10,8 @@
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "solid/formats/asset.h"
 #include "solid/formats/status.h"
 
@@ -33,6 +35,11 @@ struct DracoOptions {
 // (bits 1..30, normals 2..30, level 0..10); kLimitExceeded past 4 GiB; kInternal
 // when Draco fails.
 Result<std::vector<uint8_t>> WriteGlb(const Asset& asset, const DracoOptions& options = {});
+
+// Packs a glTF JSON document and its binary chunk (length a multiple of 4; may be
+// empty) into a .glb container, for writers of other glTF content (scene exports).
+// kLimitExceeded past 4 GiB.
+Result<std::vector<uint8_t>> PackGlb(const nlohmann::json& gltf, std::span<const uint8_t> bin);
 
 // Reads a .glb written by WriteGlb (or any glb whose meshes are Draco-compressed or
 // plain), decoding Draco, into an Asset: for round-trip and fidelity checks, and for

@@ -1,0 +1,62 @@
+// `solid sample`: draw layouts, run the mask pass, and measure the proxy metrics of
+// the paper (objects per image, occlusion, small/medium/large shares) and the
+// viewpoint distribution, without shading a single pixel.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "solid/formats/metrics.h"
+#include "solid/formats/progress.h"
+#include "solid/render/layout.h"
+#include "solid/render/mask_pass.h"
+
+namespace solid::render {
+
+// A usable layout of image `index` with its mask pass: the first restart whose layout
+// places an object and shows at least one with min_visible_pixels visible pixels
+// (solid-method.md 2: an empty image restarts the scene; D9: a bounded budget).
+struct GeneratedLayout {
+  Layout layout;
+  MaskPassResult masks;
+  double sample_ms = 0, mask_ms = 0;  // summed over restarts
+};
+// kLimitExceeded after params.max_scene_restarts + 1 unusable draws, with their reasons.
+Result<GeneratedLayout> GenerateLayout(const LayoutSampler& sampler, uint64_t dataset_seed, int64_t index,
+                                       const MaskPassOptions& options = {});
+
+// Camera directions in the objects' frames, visible instances only: azimuth in
+// `azimuth_bins` bins over [-180, 180) degrees, elevation in `elevation_bins` over
+// [-90, 90]; counts[e * azimuth_bins + a].
+struct ViewpointHistogram {
+  int azimuth_bins = 12, elevation_bins = 6;
+  std::vector<int64_t> counts = std::vector<int64_t>(72, 0);
+  void Add(double azimuth, double elevation);
+};
+
+struct SampleOptions {
+  uint64_t seed = 1;
+  int64_t first = 0;  // layouts first .. first + layouts - 1
+  int64_t layouts = 100;
+  int jobs = 0;       // layouts in parallel; 0: all cores
+  ProgressCallback progress;
+};
+
+struct SampleReport {
+  ProxyMetrics metrics;  // over annotated instances (>= min_visible_pixels visible)
+  Estimate truncation;   // over visible instances
+  ViewpointHistogram viewpoints;
+  int64_t layouts = 0, failed_layouts = 0, restarts = 0;
+  std::vector<std::string> failures;  // the first few reasons
+  double mean_attempts = 0, mean_placed = 0, mean_proposals = 0;
+  double seconds = 0;
+  double sample_ms_per_layout = 0, mask_ms_per_layout = 0;  // thread time per layout
+  nlohmann::json ToJson() const;
+};
+
+Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions& options);
+
+}  // namespace solid::render

@@ -1,0 +1,197 @@
+#include "solid/render/sample.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <numbers>
+#include <thread>
+
+#include <fmt/format.h>
+
+namespace solid::render {
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// What one layout contributes to the report; merged in index order so that the
+// report is the same for any number of jobs.
+struct LayoutSummary {
+  bool ok = false;
+  std::string failure;
+  int restarts = 0, attempts = 0, placed = 0;
+  int64_t proposals = 0;
+  double sample_ms = 0, mask_ms = 0;
+  std::vector<InstanceRecord> annotated;  // mask strings dropped
+};
+
+}  // namespace
+
+Result<GeneratedLayout> GenerateLayout(const LayoutSampler& sampler, uint64_t dataset_seed, int64_t index,
+                                       const MaskPassOptions& options) {
+  const LayoutParams& p = sampler.params();
+  GeneratedLayout g;
+  std::vector<std::string> reasons;
+  for (int restart = 0; restart <= p.max_scene_restarts; ++restart) {
+    auto start = std::chrono::steady_clock::now();
+    SOLID_ASSIGN_OR_RETURN(g.layout, sampler.Sample(dataset_seed, index, restart));
+    g.sample_ms += MillisecondsSince(start);
+    if (!g.layout.rejection.empty()) {
+      reasons.push_back(g.layout.rejection);
+      continue;
+    }
+    start = std::chrono::steady_clock::now();
+    SOLID_ASSIGN_OR_RETURN(g.masks, RunMaskPass(g.layout, p.min_visible_pixels, options));
+    g.mask_ms += MillisecondsSince(start);
+    if (g.masks.visible_objects > 0) return g;
+    reasons.push_back(fmt::format("no object with {} visible pixel(s) among {}", p.min_visible_pixels,
+                                  g.layout.objects.size()));
+  }
+  std::string why;
+  for (size_t i = 0; i < reasons.size() && i < 3; ++i) why += (i > 0 ? "; " : "") + reasons[i];
+  return LimitExceededError(fmt::format("layout {}: no usable draw in {} restarts ({}{})", index,
+                                        p.max_scene_restarts + 1, why, reasons.size() > 3 ? "; ..." : ""));
+}
+
+void ViewpointHistogram::Add(double azimuth, double elevation) {
+  constexpr double kPi = std::numbers::pi;
+  const int a = std::clamp(static_cast<int>(std::floor((azimuth + kPi) / (2 * kPi) * azimuth_bins)), 0,
+                           azimuth_bins - 1);
+  const int e = std::clamp(static_cast<int>(std::floor((elevation + kPi / 2) / kPi * elevation_bins)), 0,
+                           elevation_bins - 1);
+  ++counts[static_cast<size_t>(e) * azimuth_bins + a];
+}
+
+Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions& options) {
+  if (options.layouts < 0 || options.first < 0) return InvalidArgumentError("layouts and first must be >= 0");
+  const auto start = std::chrono::steady_clock::now();
+  const int64_t n = options.layouts;
+  std::vector<LayoutSummary> summaries(static_cast<size_t>(n));
+  std::atomic<int64_t> next{0}, done{0};
+  std::mutex error_mutex;
+  Status error;
+  const int min_visible = std::max(1, sampler.params().min_visible_pixels);
+  auto worker = [&] {
+    for (int64_t i = next++; i < n; i = next++) {
+      {
+        std::lock_guard lock(error_mutex);
+        if (!error.ok()) return;
+      }
+      LayoutSummary& s = summaries[static_cast<size_t>(i)];
+      Result<GeneratedLayout> g = GenerateLayout(sampler, options.seed, options.first + i);
+      if (!g.ok()) {
+        if (g.status().code() != StatusCode::kLimitExceeded) {
+          std::lock_guard lock(error_mutex);
+          if (error.ok()) error = g.status();
+          return;
+        }
+        s.failure = g.status().message();
+      } else {
+        s.ok = true;
+        s.restarts = g->layout.restart;
+        s.attempts = g->layout.stats.attempts;
+        s.placed = g->layout.stats.placed;
+        s.proposals = g->layout.stats.proposals;
+        s.sample_ms = g->sample_ms;
+        s.mask_ms = g->mask_ms;
+        for (InstanceRecord& r : g->masks.instances) {
+          if (r.visible_area < static_cast<uint64_t>(min_visible)) continue;
+          r.visible_rle.clear();
+          r.full_rle.clear();
+          s.annotated.push_back(std::move(r));
+        }
+      }
+      ++done;
+    }
+  };
+  const int jobs = options.jobs > 0 ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::thread> pool;
+  for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
+  if (options.progress) {
+    // The calling thread reports progress and works.
+    std::thread reporter_worker(worker);
+    while (done.load() < n) {
+      {
+        std::lock_guard lock(error_mutex);
+        if (!error.ok()) break;
+      }
+      options.progress(done.load(), n);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    reporter_worker.join();
+    options.progress(done.load(), n);
+  } else {
+    worker();
+  }
+  for (std::thread& t : pool) t.join();
+  SOLID_RETURN_IF_ERROR(error);
+
+  SampleReport report;
+  MetricsAccumulator metrics;
+  double truncation_sum = 0, truncation_sq = 0;
+  int64_t truncation_n = 0;
+  double sample_ms = 0, mask_ms = 0, attempts = 0, placed = 0, proposals = 0;
+  for (const LayoutSummary& s : summaries) {
+    ++report.layouts;
+    if (!s.ok) {
+      ++report.failed_layouts;
+      if (report.failures.size() < 5) report.failures.push_back(s.failure);
+      continue;
+    }
+    report.restarts += s.restarts;
+    metrics.AddImage(s.annotated);
+    for (const InstanceRecord& r : s.annotated) {
+      report.viewpoints.Add(r.view_azimuth, r.view_elevation);
+      truncation_sum += r.truncation;
+      truncation_sq += r.truncation * r.truncation;
+      ++truncation_n;
+    }
+    sample_ms += s.sample_ms;
+    mask_ms += s.mask_ms;
+    attempts += s.attempts;
+    placed += s.placed;
+    proposals += static_cast<double>(s.proposals);
+  }
+  report.metrics = metrics.Finish();
+  if (truncation_n > 0) {
+    const double mean = truncation_sum / truncation_n;
+    const double var = truncation_n > 1 ? std::max(0.0, (truncation_sq - truncation_n * mean * mean) / (truncation_n - 1)) : 0;
+    report.truncation = {mean, 1.96 * std::sqrt(var / truncation_n)};
+  }
+  const double ok_layouts = static_cast<double>(report.layouts - report.failed_layouts);
+  if (ok_layouts > 0) {
+    report.sample_ms_per_layout = sample_ms / ok_layouts;
+    report.mask_ms_per_layout = mask_ms / ok_layouts;
+    report.mean_attempts = attempts / ok_layouts;
+    report.mean_placed = placed / ok_layouts;
+    report.mean_proposals = proposals / ok_layouts;
+  }
+  report.seconds = MillisecondsSince(start) / 1000;
+  return report;
+}
+
+nlohmann::json SampleReport::ToJson() const {
+  nlohmann::json j = metrics.ToJson();
+  j["truncation"] = {{"mean", truncation.mean}, {"ci95", truncation.ci95}};
+  j["viewpoints"] = {{"azimuth_bins", viewpoints.azimuth_bins},
+                     {"elevation_bins", viewpoints.elevation_bins},
+                     {"azimuth_range_deg", {-180, 180}},
+                     {"elevation_range_deg", {-90, 90}},
+                     {"counts", viewpoints.counts}};
+  j["layouts"] = layouts;
+  j["failed_layouts"] = failed_layouts;
+  j["failures"] = failures;
+  j["restarts"] = restarts;
+  j["mean_attempts"] = mean_attempts;
+  j["mean_placed"] = mean_placed;
+  j["mean_proposals"] = mean_proposals;
+  j["seconds"] = seconds;
+  j["sample_ms_per_layout"] = sample_ms_per_layout;
+  j["mask_ms_per_layout"] = mask_ms_per_layout;
+  return j;
+}
+
+}  // namespace solid::render
