@@ -6,7 +6,8 @@
 #
 #   bench/convert_vs_obj2gltf.sh [BUILD_DIR] [MODELS] [JOBS]
 #
-# Needs node and npm; installs obj2gltf and gltf-pipeline into bench/node_modules.
+# Needs node; uses obj2gltf and gltf-pipeline from $SOLID_BENCH_NODE_MODULES (a node_modules
+# folder) if set, else installs them into bench/node_modules with npm.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -16,7 +17,9 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
 cmake --build "$build" --target solid make_obj_corpus >/dev/null
-if [ ! -x bench/node_modules/.bin/obj2gltf ] || [ ! -x bench/node_modules/.bin/gltf-pipeline ]; then
+modules=${SOLID_BENCH_NODE_MODULES:-$PWD/bench/node_modules}
+if [ ! -x "$modules/.bin/obj2gltf" ] || [ ! -x "$modules/.bin/gltf-pipeline" ]; then
+  [ -z "${SOLID_BENCH_NODE_MODULES:-}" ] || { echo "bench: no obj2gltf/gltf-pipeline in $modules" >&2; exit 2; }
   npm install --prefix bench --no-audit --no-fund obj2gltf@3.2.0 gltf-pipeline@4.3.1 >/dev/null
 fi
 "$build/bench/make_obj_corpus" "$work/corpus" --models "$models" >/dev/null
@@ -28,7 +31,7 @@ start=$(date +%s.%N)
 solid_s=$(echo "$(date +%s.%N) - $start" | bc)
 solid_bytes=$(find "$work/solid/models" -name '*.glb' -printf '%s\n' | awk '{s+=$1} END {print s}')
 
-export OBJ2GLTF="$PWD/bench/node_modules/.bin/obj2gltf" PIPELINE="$PWD/bench/node_modules/.bin/gltf-pipeline"
+export OBJ2GLTF="$modules/.bin/obj2gltf" PIPELINE="$modules/.bin/gltf-pipeline"
 mkdir -p "$work/ref"
 start=$(date +%s.%N)
 find "$work/corpus" -name model_normalized.obj -print0 | xargs -0 -P "$jobs" -I{} sh -c '

@@ -16,7 +16,7 @@ struct ConvertFlags {
   int64_t limit = -1;
   std::vector<std::string> synsets;
   int version = 0;
-  bool retry_failed = false, all_objects = false, verbose = false;
+  bool retry_failed = false, all_objects = false, texture_library = false, verbose = false;
   gltf::DracoOptions draco;
   convert::ProceduralSet procedural;
 };
@@ -45,6 +45,7 @@ int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport
   options.draco = f.draco;
   options.retry_failed = f.retry_failed;
   options.keep_all_room_objects = f.all_objects;
+  options.texture_library = f.texture_library;
   options.on_item = [&](const convert::ItemOutcome& item) {
     if (item.status == "failed") {
       fmt::print("FAILED\t{}\t{}\t{}\n", item.key, item.error_code, item.message);
@@ -70,6 +71,14 @@ int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport
   fmt::print("{:<18} {:.1f} s ({:.1f} assets/s), {:.1f} MB in, {:.1f} MB out\n", "time", r.seconds,
              r.seconds > 0 ? converted / r.seconds : 0.0, r.bytes_in / 1e6, r.bytes_out / 1e6);
   fmt::print("{:<18} {}\n", "catalog", r.catalog.string());
+  if (r.textures) {
+    fmt::print("{:<18} {} folders, {} files copied, {} up to date{}\n", "textures", r.textures->categories.size(),
+               r.textures->files_copied, r.textures->files_up_to_date,
+               r.textures->unknown_created ? ", unknown/ created" : "");
+    fmt::print("{:<18} {} materials (they render from textures/unknown/; per room: catalog extras "
+               "unmatched_texture_folders)\n", "unmatched folders", r.textures->unmatched.size());
+    for (const auto& [material, folder] : r.textures->unmatched) fmt::print("  {} -> {}/\n", material, folder);
+  }
   if (r.failed > 0) {
     fmt::print(stderr, "solid: {} assets failed; reasons: solid inspect {}\n", r.failed, f.out);
     return kExitProblems;
@@ -95,6 +104,9 @@ Command AddConvert(CLI::App& app) {
   scenenet->add_option("ROOT", f->root, "SceneNet root (SceneNetData/, layouts/...)")->required();
   scenenet->add_option("OUT", f->out, "Assets directory")->required();
   scenenet->add_flag("--all-objects", f->all_objects, "Keep every object, not only walls, floors and ceilings");
+  scenenet->add_flag("--texture-library", f->texture_library,
+                     "Copy ROOT/texture_library/<category>/ to OUT/textures/, add textures/unknown/, and list "
+                     "materials whose texture folder does not exist");
   AddCommonFlags(scenenet, f.get());
   CLI::App* procedural = cmd->add_subcommand("procedural", "Built-in label-free shapes and rooms (no download)");
   procedural->add_option("OUT", f->out, "Assets directory")->required();

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <deque>
+#include <memory>
 #include <mutex>
 #include <regex>
 #include <set>
@@ -20,6 +21,7 @@
 #include "solid/formats/catalog.h"
 #include "solid/formats/checksum.h"
 #include "solid/formats/files.h"
+#include "solid/formats/image_codec.h"
 
 namespace solid::convert {
 // The asset model and its glb codec live in formats (render reads them too).
@@ -295,7 +297,8 @@ json OptionsIdentity(const ConvertOptions& o) {
           {"normal_bits", o.draco.normal_bits},
           {"texcoord_bits", o.draco.texcoord_bits},
           {"compression_level", o.draco.compression_level},
-          {"keep_all_room_objects", o.keep_all_room_objects}};
+          {"keep_all_room_objects", o.keep_all_room_objects},
+          {"texture_library", o.texture_library}};
 }
 
 // Runs the jobs on options.jobs threads; the calling thread owns the catalog.
@@ -374,9 +377,9 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
     if (auto* failure = std::get_if<AssetFailure>(&result)) return fail(*failure);
     Converted& c = std::get<Converted>(result);
     for (const ConvertWarning& w : c.warnings) e.warnings.push_back({{"code", w.code}, {"message", w.message}});
-    Result<std::vector<uint8_t>> glb = WriteGlb(c.asset, options.draco);
-    if (!glb.ok()) return fail({"write_error", glb.status().message()});
     fs::path target = out / job.output;
+    Result<std::vector<uint8_t>> glb = WriteGlb(c.asset, options.draco);
+    if (!glb.ok()) return fail({"write_error", fmt::format("{}: {}", target.string(), glb.status().message())});
     std::error_code dir_ec;
     fs::create_directories(target.parent_path(), dir_ec);
     Status written = files::WriteFileAtomically(target, *glb);
@@ -520,8 +523,10 @@ Result<ConvertReport> ConvertShapeNet(const fs::path& root, const fs::path& out,
 
 namespace {
 
+// texture_folders: the library's non-empty folders when the texture-library step runs, else null.
 std::variant<Converted, AssetFailure> ConvertSceneNetRoom(const fs::path& root, const fs::path& obj_path,
-                                                          const std::string& key, bool keep_all) {
+                                                          const std::string& key, bool keep_all,
+                                                          const std::set<std::string>* texture_folders) {
   Converted c;
   std::variant<LoadedObj, AssetFailure> loaded_or = LoadObj(obj_path, &c.warnings);
   if (auto* failure = std::get_if<AssetFailure>(&loaded_or)) return *failure;
@@ -584,6 +589,14 @@ std::variant<Converted, AssetFailure> ConvertSceneNetRoom(const fs::path& root, 
               {"dropped_objects", json(std::vector<std::string>(dropped.begin(), dropped.end()))},
               {"floor_area_m2", floor_area},
               {"height_m", b.empty ? 0.0 : b.max[1] - b.min[1]}};
+  if (texture_folders != nullptr) {
+    json unmatched = json::array();
+    for (const Material& m : c.asset.materials) {
+      std::string folder = SceneNetTextureFolder(m.name);
+      if (!texture_folders->count(folder)) unmatched.push_back({{"material", m.name}, {"folder", folder}});
+    }
+    c.extras["unmatched_texture_folders"] = std::move(unmatched);
+  }
   c.asset.extras["source"] = "scenenet";
   c.asset.extras["scene"] = key;
   return c;
@@ -604,6 +617,13 @@ Result<ConvertReport> ConvertSceneNet(const fs::path& root, const fs::path& out,
   }
   if (objs.empty()) return NotFoundError(root.string() + ": no .obj files found");
   std::sort(objs.begin(), objs.end(), [](const fs::path& a, const fs::path& b) { return a.native() < b.native(); });
+  std::optional<TextureLibraryReport> textures;
+  std::shared_ptr<const std::set<std::string>> texture_folders;
+  if (options.texture_library) {
+    SOLID_ASSIGN_OR_RETURN(textures, CopySceneNetTextureLibrary(root / "texture_library", out / "textures"));
+    texture_folders = std::make_shared<const std::set<std::string>>(textures->categories.begin(),
+                                                                    textures->categories.end());
+  }
   std::vector<Job> jobs;
   for (const fs::path& obj : objs) {
     Job job;
@@ -615,12 +635,87 @@ Result<ConvertReport> ConvertSceneNet(const fs::path& root, const fs::path& out,
     job.inputs = {obj};
     fs::path mtl = fs::path(obj).replace_extension(".mtl");
     if (fs::is_regular_file(mtl, ec)) job.inputs.push_back(mtl);
+    if (textures) {
+      // Which materials are unmatched depends on the library too: a new folder reconverts.
+      job.generator_identity = "texture folders:";
+      for (const std::string& f : textures->categories) job.generator_identity += " " + f;
+    }
     std::string key = job.key;
     bool keep_all = options.keep_all_room_objects;
-    job.convert = [root, obj, key, keep_all] { return ConvertSceneNetRoom(root, obj, key, keep_all); };
+    job.convert = [root, obj, key, keep_all, texture_folders] {
+      return ConvertSceneNetRoom(root, obj, key, keep_all, texture_folders.get());
+    };
     jobs.push_back(std::move(job));
   }
-  return RunJobs(std::move(jobs), out, options);
+  std::vector<std::string> keys;
+  for (const Job& job : jobs) keys.push_back(job.key);
+  if (options.limit >= 0 && static_cast<int64_t>(keys.size()) > options.limit) keys.resize(static_cast<size_t>(options.limit));
+  SOLID_ASSIGN_OR_RETURN(ConvertReport report, RunJobs(std::move(jobs), out, options));
+  if (textures) {
+    // From the catalog, so that rooms skipped as up to date are reported too.
+    SOLID_ASSIGN_OR_RETURN(Catalog catalog, Catalog::OpenReadOnly(report.catalog));
+    for (const std::string& key : keys) {
+      SOLID_ASSIGN_OR_RETURN(std::optional<CatalogEntry> row, catalog.Find(key));
+      if (!row || !row->extras.is_object() || !row->extras.contains("unmatched_texture_folders")) continue;
+      for (const json& u : row->extras["unmatched_texture_folders"]) {
+        textures->unmatched[u.value("material", "")] = u.value("folder", "");
+      }
+    }
+    report.textures = std::move(textures);
+  }
+  return report;
+}
+
+Result<TextureLibraryReport> CopySceneNetTextureLibrary(const fs::path& library, const fs::path& textures) {
+  std::error_code ec;
+  if (!fs::is_directory(library, ec)) return NotFoundError(library.string() + ": no texture library folder");
+  auto visible = [](const fs::path& p) {
+    std::string name = p.filename().string();
+    return !name.empty() && name[0] != '.' && !files::IsTempPath(p);
+  };
+  auto regular_files = [&](const fs::path& dir) {
+    std::vector<fs::path> out;
+    for (const fs::path& p : SortedEntries(dir, false)) {
+      if (visible(p) && fs::is_regular_file(p, ec)) out.push_back(p);
+    }
+    return out;
+  };
+  TextureLibraryReport report;
+  for (const fs::path& dir : SortedEntries(library, true)) {
+    if (!visible(dir)) continue;
+    std::vector<fs::path> images = regular_files(dir);
+    if (images.empty()) continue;
+    report.categories.push_back(dir.filename().string());
+    const fs::path target_dir = textures / dir.filename();
+    fs::create_directories(target_dir, ec);
+    if (ec) return IoError(fmt::format("{}: cannot create: {}", target_dir.string(), ec.message()));
+    for (const fs::path& source : images) {
+      const fs::path target = target_dir / source.filename();
+      SOLID_ASSIGN_OR_RETURN(files::FileDigest want, files::DigestFile(source));
+      if (fs::is_regular_file(target, ec)) {
+        Result<files::FileDigest> have = files::DigestFile(target);
+        if (have.ok() && have->bytes == want.bytes && have->xxh64 == want.xxh64) {
+          ++report.files_up_to_date;
+          continue;
+        }
+      }
+      SOLID_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, files::ReadFile(source, kMaxInputFileBytes));
+      SOLID_RETURN_IF_ERROR(files::WriteFileAtomically(target, bytes));
+      ++report.files_copied;
+    }
+  }
+  const fs::path unknown = textures / "unknown";
+  if (regular_files(unknown).empty()) {
+    constexpr uint32_t kSide = 64;
+    constexpr uint8_t kGrey = 163;  // 0.64 * 255, Blender's default Kd
+    Image8 grey{kSide, kSide, 3, std::vector<uint8_t>(size_t{kSide} * kSide * 3, kGrey)};
+    SOLID_ASSIGN_OR_RETURN(std::vector<uint8_t> png, EncodeImage(grey, ImageFormat::kPng));
+    fs::create_directories(unknown, ec);
+    if (ec) return IoError(fmt::format("{}: cannot create: {}", unknown.string(), ec.message()));
+    SOLID_RETURN_IF_ERROR(files::WriteFileAtomically(unknown / "placeholder_grey.png", png));
+    report.unknown_created = true;
+  }
+  return report;
 }
 
 Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path& out, const ConvertOptions& options) {

@@ -154,6 +154,52 @@ struct NodeDraft {
   std::map<MaterialKey, size_t> primitive_of_material;
 };
 
+// Well-formed UTF-8 (RFC 3629): no overlong forms, surrogates or code points past U+10FFFF.
+bool IsUtf8(std::string_view s) {
+  for (size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    size_t n;
+    uint32_t cp;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((c & 0xE0) == 0xC0) {
+      n = 1, cp = c & 0x1F;
+    } else if ((c & 0xF0) == 0xE0) {
+      n = 2, cp = c & 0x0F;
+    } else if ((c & 0xF8) == 0xF0) {
+      n = 3, cp = c & 0x07;
+    } else {
+      return false;
+    }
+    if (i + n >= s.size()) return false;
+    for (size_t k = 1; k <= n; ++k) {
+      const auto d = static_cast<unsigned char>(s[i + k]);
+      if ((d & 0xC0) != 0x80) return false;
+      cp = (cp << 6) | (d & 0x3F);
+    }
+    static constexpr uint32_t kMin[4] = {0, 0x80, 0x800, 0x10000};
+    if (cp < kMin[n] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    i += n + 1;
+  }
+  return true;
+}
+
+std::string Latin1ToUtf8(std::string_view s) {
+  std::string out;
+  for (char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x80) {
+      out += ch;
+    } else {
+      out += static_cast<char>(0xC0 | (c >> 6));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    }
+  }
+  return out;
+}
+
 class Builder {
  public:
   Builder(const ObjData& obj, const MtlData* mtl, const ObjAssetOptions& options)
@@ -199,10 +245,26 @@ class Builder {
           options_.obj_name, c.triangles_in, c.degenerates_removed, c.duplicates_removed,
           c.triangles_in - c.degenerates_removed - c.duplicates_removed));
     }
+    MakeNamesUtf8();
     return std::move(result_);
   }
 
  private:
+  // glTF text is UTF-8. Names in another encoding (assimp-testmodels regr01.mtl has the
+  // Latin-1 "Terraind\xe6k") are read as Latin-1, which maps every byte, rather than
+  // failing the whole model at write time.
+  void MakeNamesUtf8() {
+    auto fix = [&](std::string* name, std::string_view what) {
+      if (IsUtf8(*name)) return;
+      std::string utf8 = Latin1ToUtf8(*name);
+      Warn("name_not_utf8", fmt::format("{}: {} name '{}' is not UTF-8; read as Latin-1", options_.obj_name, what, utf8));
+      *name = std::move(utf8);
+    };
+    for (Node& n : result_.asset.nodes) fix(&n.name, "object");
+    for (Material& m : result_.asset.materials) fix(&m.name, "material");
+    for (Texture& t : result_.asset.textures) fix(&t.name, "texture");
+  }
+
   void Warn(std::string code, std::string message) {
     result_.warnings.push_back({.code = std::move(code), .message = std::move(message)});
   }

@@ -85,4 +85,12 @@ Structure SceneNetStructure(std::string_view object_name) {
   return Structure::kNone;
 }
 
+std::string SceneNetTextureFolder(std::string_view material_name) {
+  std::string folder;
+  for (char c : material_name.substr(0, material_name.find('.'))) {
+    if (c != '_' && !(c >= '0' && c <= '9')) folder += c;
+  }
+  return folder;
+}
+
 }  // namespace solid::convert

@@ -126,8 +126,11 @@ Status Catalog::Put(const CatalogEntry& e) {
   } else {
     s.BindNull(4);
   }
-  std::string input_files = e.input_files.dump(), warnings = e.warnings.dump(), counts = e.counts.dump(),
-              extras = e.extras.dump();
+  // Warnings quote input text (material names, paths), which need not be UTF-8; dump()
+  // would throw on it, so invalid bytes become U+FFFD.
+  auto dump = [](const nlohmann::json& j) { return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); };
+  std::string input_files = dump(e.input_files), warnings = dump(e.warnings), counts = dump(e.counts),
+              extras = dump(e.extras);
   s.Bind(5, AssetStatusName(e.status)).Bind(6, std::string_view(input_files));
   s.Bind(7, std::string_view(Hex64(e.input_hash))).Bind(8, std::string_view(e.converter_version));
   s.Bind(9, std::string_view(Hex64(e.options_hash)));

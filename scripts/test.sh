@@ -4,10 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh --fuzz
-# Khronos glTF-Validator from the npm registry, for the convert tests (they skip, saying
+# Khronos glTF-Validator from the npm registry, for the glb and convert tests (they skip, saying
 # so, when it cannot be installed).
-if [ ! -d tests/convert/node/node_modules/gltf-validator ] && command -v npm >/dev/null; then
-  npm ci --prefix tests/convert/node --no-audit --no-fund --silent >/dev/null 2>&1 ||
+if [ ! -d tests/gltf_validator/node_modules/gltf-validator ] && command -v npm >/dev/null; then
+  npm ci --prefix tests/gltf_validator --no-audit --no-fund --silent >/dev/null 2>&1 ||
     echo "test: could not install npm gltf-validator; glTF validation tests will skip"
 fi
 build=${SOLID_TEST_BUILD_DIR:-build-test}

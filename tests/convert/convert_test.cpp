@@ -1,16 +1,27 @@
 // End to end: `solid convert` over the fixture trees of docs "input-formats" section 5.
 #include "solid/convert/convert.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <fstream>
 #include <map>
+#include <set>
 
+#include "fixtures/gltf_validator.h"
 #include "fixtures/input_trees.h"
+#include "fixtures/triangle_match.h"
 #include "formats/test_util.h"
+#include "solid/convert/obj.h"
+#include "solid/convert/obj_to_asset.h"
+#include "solid/convert/procedural.h"
+#include "solid/convert/scenenet.h"
 #include "solid/formats/glb.h"
 #include "solid/formats/catalog.h"
 #include "solid/formats/files.h"
+#include "solid/formats/image_codec.h"
 #include "solid/formats/inspect.h"
 
 namespace solid::convert {
@@ -242,6 +253,367 @@ TEST(ConvertProcedural, IsDeterministicAndInspectable) {
   EXPECT_EQ((*inspection)["rooms"], 2);
   EXPECT_GT((*inspection)["bytes_out"].get<int64_t>(), 0);
   EXPECT_NE(FormatInspection(*inspection).find("procedural"), std::string::npos);
+}
+
+// Text in warnings comes from the input: an undefined Latin-1 usemtl name went verbatim into
+// the catalog's warnings JSON, whose serialisation threw and ended the whole batch.
+TEST(ConvertShapeNet, NonUtf8TextInWarningsDoesNotStopTheBatch) {
+  TempDir dir;
+  const fs::path model = dir.path() / "v1/02958343/00000000000000000000000000000004";
+  fs::create_directories(model);
+  std::ofstream(model / "model.obj", std::ios::binary) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl Terr\xe6n\nf 1 2 3\n";
+  auto report = ConvertShapeNet(dir.path() / "v1", dir.path() / "out", TwoJobs());
+  ASSERT_OK(report.status());
+  EXPECT_EQ(report->ok_with_warnings, 1);
+  auto rows = CatalogRows(dir.path() / "out");
+  const CatalogEntry& e = rows["02958343/00000000000000000000000000000004"];
+  EXPECT_TRUE(HasWarning(e, "undefined_material")) << e.warnings.dump();
+  EXPECT_TRUE(HasWarning(e, "name_not_utf8")) << e.warnings.dump();
+}
+
+// ---------------------------------------------------------------------------
+// The SceneNet texture-library step (input-formats 3.3 and 4, "Optional texture-library step")
+
+std::map<std::string, std::string> UnmatchedOfRow(const CatalogEntry& e) {
+  std::map<std::string, std::string> out;
+  if (!e.extras.contains("unmatched_texture_folders")) return out;
+  for (const auto& u : e.extras["unmatched_texture_folders"]) out[u["material"]] = u["folder"];
+  return out;
+}
+
+TEST(ConvertSceneNet, TextureLibrary_Walls132AndMetalPlasticAreUnmatchedAndUnknownIsCreated) {
+  TempDir dir;
+  fs::path root = dir.path() / "scenenet", out = dir.path() / "assets";
+  ASSERT_OK(fixtures::WriteSceneNetTree(root));
+  ASSERT_FALSE(fs::exists(root / "texture_library/unknown")) << "the download has no unknown/";
+  ConvertOptions o = TwoJobs();
+  o.texture_library = true;
+  o.keep_all_room_objects = true;  // the metal_plastic.001 material is only on props
+  auto report = ConvertSceneNet(root, out, o);
+  ASSERT_OK(report.status());
+  ASSERT_TRUE(report->textures.has_value());
+  const TextureLibraryReport& t = *report->textures;
+  EXPECT_EQ(t.categories, (std::vector<std::string>{"ceiling", "floor", "metal_plastic", "painting", "wall", "wood"}));
+  EXPECT_EQ(t.files_copied, 6);
+  EXPECT_EQ(t.files_up_to_date, 0);
+  EXPECT_TRUE(t.unknown_created);
+  for (const auto& entry : fs::directory_iterator(root / "texture_library/wall")) {
+    auto a = files::ReadFile(entry.path(), 1 << 20);
+    auto b = files::ReadFile(out / "textures/wall" / entry.path().filename(), 1 << 20);
+    ASSERT_OK(a.status());
+    ASSERT_OK(b.status());
+    EXPECT_EQ(*a, *b);
+  }
+  auto placeholder = files::ReadFile(out / "textures/unknown/placeholder_grey.png", 1 << 20);
+  ASSERT_OK(placeholder.status());
+  auto grey = DecodeImage(*placeholder, ImageFormat::kPng);
+  ASSERT_OK(grey.status());
+  EXPECT_GT(grey->width, 0u);
+
+  // Case-sensitive, '_' and digits deleted: "Walls" and "metalplastic" are not library folders.
+  EXPECT_EQ(t.unmatched.at("Walls.132"), "Walls");
+  EXPECT_EQ(t.unmatched.at("metal_plastic.001"), "metalplastic");
+  EXPECT_EQ(t.unmatched.at("Wall.242333"), "Wall");
+  EXPECT_FALSE(t.unmatched.count("wall.000"));
+  EXPECT_FALSE(t.unmatched.count("floor.001"));
+  EXPECT_FALSE(t.unmatched.count("ceiling.000"));
+  auto rows = CatalogRows(out);
+  std::map<std::string, std::string> bedroom = UnmatchedOfRow(rows["SceneNetData/1Bedroom/fixture_bedroom"]);
+  EXPECT_EQ(bedroom["Walls.132"], "Walls");
+  EXPECT_EQ(bedroom["metal_plastic.001"], "metalplastic");
+  EXPECT_FALSE(bedroom.count("wall.000"));
+  // The layout's materials: Walls.001 -> Walls (unmatched), cupboard.000 -> cupboard (unmatched:
+  // the MTL says wood, but the loader goes by the name), Floor.1001 -> Floor (case-sensitive).
+  std::map<std::string, std::string> layout = UnmatchedOfRow(rows["layouts/bedroom/bedroom1_layout"]);
+  EXPECT_EQ(layout, (std::map<std::string, std::string>{
+                        {"Floor.1001", "Floor"}, {"Walls.001", "Walls"}, {"cupboard.000", "cupboard"}}));
+
+  // A rerun changes nothing and still reports, from the catalog.
+  auto again = ConvertSceneNet(root, out, o);
+  ASSERT_OK(again.status());
+  EXPECT_EQ(again->up_to_date, again->assets);
+  EXPECT_EQ(again->textures->files_copied, 0);
+  EXPECT_EQ(again->textures->files_up_to_date, 6);
+  EXPECT_FALSE(again->textures->unknown_created);
+  EXPECT_EQ(again->textures->unmatched, t.unmatched);
+
+  // A damaged copy is replaced; a new library folder reconverts the rooms.
+  for (const auto& entry : fs::directory_iterator(out / "textures/floor")) {
+    std::ofstream(entry.path(), std::ios::trunc) << "torn";
+  }
+  ASSERT_OK(fixtures::WriteSceneNetTree(root));
+  fs::copy(root / "texture_library/wall", root / "texture_library/Walls");
+  auto third = ConvertSceneNet(root, out, o);
+  ASSERT_OK(third.status());
+  EXPECT_EQ(third->textures->files_copied, 2) << "the torn floor image and the new Walls/ image";
+  EXPECT_EQ(third->up_to_date, 0);
+  EXPECT_FALSE(third->textures->unmatched.count("Walls.132"));
+  EXPECT_EQ(third->textures->unmatched.count("metal_plastic.001"), 1u);
+}
+
+TEST(ConvertSceneNet, TextureLibrary_DefaultRunReportsOnlyMaterialsOfKeptObjects) {
+  TempDir dir;
+  fs::path root = dir.path() / "scenenet";
+  ASSERT_OK(fixtures::WriteSceneNetTree(root));
+  ConvertOptions o = TwoJobs();
+  o.texture_library = true;
+  auto report = ConvertSceneNet(root, dir.path() / "assets", o);
+  ASSERT_OK(report.status());
+  EXPECT_EQ(report->textures->unmatched.count("Walls.132"), 1u);
+  EXPECT_EQ(report->textures->unmatched.count("metal_plastic.001"), 0u) << "only props use it, and they are dropped";
+
+  auto without = ConvertSceneNet(root, dir.path() / "plain", TwoJobs());
+  ASSERT_OK(without.status());
+  EXPECT_FALSE(without->textures.has_value());
+  EXPECT_FALSE(fs::exists(dir.path() / "plain/textures"));
+
+  fs::remove_all(root / "texture_library");
+  EXPECT_EQ(ConvertSceneNet(root, dir.path() / "again", o).status().code(), StatusCode::kNotFound);
+}
+
+// ---------------------------------------------------------------------------
+// End to end over every fixture tree: the Khronos validator and geometric fidelity
+
+struct FixtureOutputs {
+  fs::path shapenet_v1, shapenet_v2, scenenet, procedural;
+};
+
+constexpr uint64_t kProceduralSeed = 3;
+
+// The fixture trees of input-formats 5 and a procedural set covering every shape family,
+// converted with the library's batch entry points.
+FixtureOutputs ConvertEveryFixture(const fs::path& dir) {
+  FixtureOutputs o{dir / "out-v1", dir / "out-v2", dir / "out-scenenet", dir / "out-procedural"};
+  EXPECT_OK(fixtures::WriteShapeNetV1Tree(dir / "v1"));
+  EXPECT_OK(fixtures::WriteShapeNetV2Tree(dir / "v2"));
+  EXPECT_OK(fixtures::WriteSceneNetTree(dir / "scenenet"));
+  EXPECT_OK(ConvertShapeNet(dir / "v1", o.shapenet_v1, TwoJobs()).status());
+  EXPECT_OK(ConvertShapeNet(dir / "v2", o.shapenet_v2, TwoJobs()).status());
+  ConvertOptions all = TwoJobs();
+  all.keep_all_room_objects = true;
+  EXPECT_OK(ConvertSceneNet(dir / "scenenet", o.scenenet, all).status());
+  ProceduralSet set;
+  set.models = kShapeFamilyCount;
+  set.rooms = 2;
+  set.seed = kProceduralSeed;
+  EXPECT_OK(ConvertProcedural(set, o.procedural, TwoJobs()).status());
+  return o;
+}
+
+std::vector<fs::path> GlbsBelow(const fs::path& dir) {
+  std::vector<fs::path> out;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file() && entry.path().extension() == ".glb") out.push_back(entry.path());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(ConvertEndToEnd, KhronosValidatorReportsNoErrorsOnEveryOutput) {
+  if (auto why = fixtures::GltfValidatorUnavailable()) GTEST_SKIP() << *why;
+  TempDir dir;
+  const FixtureOutputs o = ConvertEveryFixture(dir.path());
+  std::vector<fs::path> files;
+  size_t per_tree[4] = {};
+  size_t k = 0;
+  for (const fs::path& out : {o.shapenet_v1, o.shapenet_v2, o.scenenet, o.procedural}) {
+    for (const fs::path& glb : GlbsBelow(out)) {
+      files.push_back(glb);
+      ++per_tree[k];
+    }
+    ++k;
+  }
+  // 1 v1 model, 5 v2 models, 4 rooms (the millimetre room fails), 6 shapes + 2 rooms.
+  EXPECT_EQ(per_tree[0], 1u);
+  EXPECT_EQ(per_tree[1], 5u);
+  EXPECT_EQ(per_tree[2], 4u);
+  EXPECT_EQ(per_tree[3], static_cast<size_t>(kShapeFamilyCount) + 2);
+  // The validator skips Draco data: it also checks a copy holding the decoded geometry.
+  const fs::path plain_dir = dir.path() / "decompressed";
+  fs::create_directories(plain_dir);
+  const size_t compressed = files.size();
+  for (size_t i = 0; i < compressed; ++i) {
+    auto bytes = files::ReadFile(files[i], 64 << 20);
+    ASSERT_OK(bytes.status());
+    auto plain = fixtures::DecompressDraco(*bytes, files[i].string());
+    ASSERT_OK(plain.status());
+    const fs::path path = plain_dir / fmt::format("{:03d}-{}", i, files[i].filename().string());
+    ASSERT_OK(files::WriteFileAtomically(path, *plain));
+    files.push_back(path);
+  }
+  const fixtures::GltfValidatorRun run = fixtures::RunGltfValidator(files);
+  EXPECT_EQ(run.exit_status, 0) << run.report;
+  EXPECT_EQ(run.files_reported, files.size()) << run.report;
+  std::printf("glTF-Validator: %zu outputs + %zu decoded copies, exit %d\n", compressed, compressed, run.exit_status);
+}
+
+// The cleaned input of each asset, rebuilt through the library's own steps.
+Asset CleanedShapeNetV2(const fs::path& model_dir, const std::string& key) {
+  const fs::path obj_path = model_dir / "models/model_normalized.obj", mtl_path = model_dir / "models/model_normalized.mtl";
+  auto obj_bytes = files::ReadFile(obj_path, 64 << 20);
+  auto mtl_bytes = files::ReadFile(mtl_path, 64 << 20);
+  EXPECT_TRUE(obj_bytes.ok() && mtl_bytes.ok());
+  if (!obj_bytes.ok() || !mtl_bytes.ok()) return {};
+  auto obj = ReadObj(*obj_bytes, obj_path.string());
+  auto mtl = ReadMtl(*mtl_bytes, mtl_path.string());
+  EXPECT_TRUE(obj.ok() && mtl.ok());
+  if (!obj.ok() || !mtl.ok()) return {};
+  ObjAssetOptions options;
+  options.node_name = key;
+  options.mtl_dir = mtl_path.parent_path();
+  options.confine_root = model_dir;
+  auto built = BuildAssetFromObj(*obj, &*mtl, options);
+  EXPECT_TRUE(built.ok()) << built.status().ToString();
+  return built.ok() ? std::move(built->asset) : Asset{};
+}
+
+Asset CleanedSceneNetRoom(const fs::path& root, const fs::path& obj_path) {
+  auto obj_bytes = files::ReadFile(obj_path, 64 << 20);
+  EXPECT_TRUE(obj_bytes.ok());
+  if (!obj_bytes.ok()) return {};
+  auto obj = ReadObj(*obj_bytes, obj_path.string());
+  EXPECT_TRUE(obj.ok());
+  if (!obj.ok()) return {};
+  std::optional<MtlData> mtl;
+  const fs::path mtl_path = fs::path(obj_path).replace_extension(".mtl");
+  if (fs::exists(mtl_path)) {
+    auto mtl_bytes = files::ReadFile(mtl_path, 64 << 20);
+    EXPECT_TRUE(mtl_bytes.ok());
+    if (mtl_bytes.ok()) {
+      auto parsed = ReadMtl(*mtl_bytes, mtl_path.string());
+      EXPECT_TRUE(parsed.ok());
+      if (parsed.ok()) mtl = std::move(parsed).value();
+    }
+  }
+  ObjAssetOptions options;
+  options.grouping = NodeGrouping::kPerObject;
+  options.textures = TextureMode::kValidateOnly;
+  options.mtl_dir = obj_path.parent_path();
+  options.confine_root = root;
+  auto built = BuildAssetFromObj(*obj, mtl ? &*mtl : nullptr, options);
+  EXPECT_TRUE(built.ok()) << built.status().ToString();
+  return built.ok() ? std::move(built->asset) : Asset{};
+}
+
+struct FidelitySummary {
+  size_t triangles = 0, unmatched = 0;
+  double max_relative_error = 0;  // largest position error / the primitive's bounding-box diagonal
+  double max_error = 0;
+};
+
+void Accumulate(const Asset& cleaned, const fs::path& glb, FidelitySummary* sum) {
+  const Asset decoded = ReadAsset(glb);
+  ASSERT_EQ(cleaned.nodes.size(), decoded.nodes.size()) << glb;
+  for (size_t i = 0; i < cleaned.nodes.size(); ++i) {
+    ASSERT_EQ(cleaned.nodes[i].primitives.size(), decoded.nodes[i].primitives.size()) << glb << " " << cleaned.nodes[i].name;
+    for (size_t j = 0; j < cleaned.nodes[i].primitives.size(); ++j) {
+      const Primitive& in = cleaned.nodes[i].primitives[j];
+      const fixtures::Fidelity f = fixtures::MatchTriangles(in, decoded.nodes[i].primitives[j], DracoOptions{});
+      EXPECT_EQ(f.unmatched, 0u) << glb << ": node " << cleaned.nodes[i].name << " primitive " << j;
+      EXPECT_EQ(in.indices.size(), decoded.nodes[i].primitives[j].indices.size()) << glb;
+      sum->triangles += in.indices.size() / 3;
+      sum->unmatched += f.unmatched;
+      sum->max_error = std::max(sum->max_error, f.max_error);
+      if (f.diagonal > 0) sum->max_relative_error = std::max(sum->max_relative_error, f.max_error / f.diagonal);
+    }
+  }
+}
+
+TEST(ConvertEndToEnd, DecodedOutputHoldsEveryCleanedTriangleWithinOneQuantizationStep) {
+  TempDir dir;
+  const FixtureOutputs o = ConvertEveryFixture(dir.path());
+  FidelitySummary sum;
+  size_t assets = 0;
+  for (const auto& [key, row] : CatalogRows(o.shapenet_v2)) {
+    if (!row.file) continue;
+    Accumulate(CleanedShapeNetV2(dir.path() / "v2" / key, key), o.shapenet_v2 / *row.file, &sum);
+    ++assets;
+  }
+  for (const auto& [key, row] : CatalogRows(o.scenenet)) {
+    if (!row.file) continue;
+    Accumulate(CleanedSceneNetRoom(dir.path() / "scenenet", dir.path() / "scenenet" / (key + ".obj")),
+               o.scenenet / *row.file, &sum);
+    ++assets;
+  }
+  for (int i = 0; i < kShapeFamilyCount; ++i) {
+    const std::string key = fmt::format("procedural/shape-{:06d}", i);
+    auto shape = MakeProceduralShape(kProceduralSeed, i, key);
+    ASSERT_OK(shape.status());
+    Accumulate(*shape, o.procedural / ("models/" + key + ".glb"), &sum);
+    ++assets;
+  }
+  for (int i = 0; i < 2; ++i) {
+    const std::string key = fmt::format("procedural/room-{:06d}", i);
+    auto room = MakeProceduralRoom(kProceduralSeed, i, key);
+    ASSERT_OK(room.status());
+    Accumulate(*room, o.procedural / ("rooms/" + key + ".glb"), &sum);
+    ++assets;
+  }
+  EXPECT_EQ(assets, 5u + 4u + kShapeFamilyCount + 2u);
+  EXPECT_EQ(sum.unmatched, 0u);
+  // 14 position bits: rounding leaves at most half a step, extent / (2^14 - 1) / 2, per axis.
+  EXPECT_LE(sum.max_relative_error, 0.5 / ((1 << 14) - 1) + 1e-6);
+  std::printf("fidelity: %zu assets, %zu triangles, 0 missing; max position error %.3g "
+              "(%.3g of the bounding-box diagonal)\n",
+              assets, sum.triangles, sum.max_error, sum.max_relative_error);
+}
+
+// ---------------------------------------------------------------------------
+// A real generic-OBJ corpus (Debian assimp-testmodels, input-formats 5.6)
+
+constexpr const char* kAssimpModels = "/usr/share/assimp/models";
+
+TEST(ConvertCorpus, AssimpTestModelsConvertOrFailWithAReason) {
+  if (!fs::is_directory(kAssimpModels)) {
+    GTEST_SKIP() << kAssimpModels << " absent: install Debian package assimp-testmodels to run this test";
+  }
+  // Each OBJ becomes the model.obj of a ShapeNet v1 model folder holding a copy of its own
+  // folder, so that its MTL and textures resolve as they do beside it.
+  TempDir dir;
+  const fs::path root = dir.path() / "corpus";
+  std::vector<fs::path> objs;
+  for (const auto& entry : fs::recursive_directory_iterator(kAssimpModels)) {
+    if (entry.is_regular_file() && entry.path().extension() == ".obj") objs.push_back(entry.path());
+  }
+  std::sort(objs.begin(), objs.end());
+  ASSERT_FALSE(objs.empty());
+  std::map<std::string, fs::path> source_of;
+  for (size_t i = 0; i < objs.size(); ++i) {
+    const std::string model = fmt::format("{:032x}", i);
+    const fs::path model_dir = root / "00000000" / model;
+    fs::create_directories(model_dir);
+    for (const auto& sibling : fs::directory_iterator(objs[i].parent_path())) {
+      if (sibling.is_regular_file()) fs::copy_file(sibling.path(), model_dir / sibling.path().filename());
+    }
+    fs::copy_file(objs[i], model_dir / "model.obj");
+    source_of["00000000/" + model] = objs[i];
+  }
+  ConvertOptions options = TwoJobs();
+  options.shapenet_version = 1;
+  auto report = ConvertShapeNet(root, dir.path() / "out", options);
+  ASSERT_OK(report.status());
+  EXPECT_EQ(report->assets, static_cast<int64_t>(objs.size()));
+  int converted = 0, failed = 0;
+  for (const auto& [key, row] : CatalogRows(dir.path() / "out")) {
+    const std::string name = fs::relative(source_of[key], kAssimpModels).string();
+    if (row.status == AssetStatus::kFailed) {
+      ++failed;
+      EXPECT_FALSE(row.file.has_value()) << name;
+      EXPECT_FALSE(row.error_code.value_or("").empty()) << name;
+      EXPECT_FALSE(row.error.value_or("").empty()) << name;
+      std::printf("  failed %-40s %s: %s\n", name.c_str(), row.error_code.value_or("").c_str(),
+                  row.error.value_or("").c_str());
+      continue;
+    }
+    ++converted;
+    ASSERT_TRUE(row.file.has_value()) << name;
+    const Asset asset = ReadAsset(dir.path() / "out" / *row.file);
+    EXPECT_EQ(static_cast<int64_t>(TriangleCount(asset)), row.triangles) << name;
+    EXPECT_GT(row.triangles, 0) << name;
+  }
+  std::printf("assimp-testmodels: %zu OBJ files, %d converted, %d failed\n", objs.size(), converted, failed);
+  EXPECT_EQ(converted + failed, static_cast<int>(objs.size()));
+  EXPECT_GT(converted, 0);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "formats/test_util.h"
+#include "solid/formats/glb.h"
 #include "solid/formats/image_codec.h"
 
 namespace solid::convert {
@@ -334,6 +335,34 @@ TEST(ObjToAsset, MissingMtlGivesDefaultMaterialsAndOneWarning) {
   ASSERT_EQ(r->asset.materials.size(), 2u);
   EXPECT_EQ(r->asset.materials[1].name, "material_1_0");
   EXPECT_THAT(r->asset.materials[1].base_color, ElementsAre(0.8f, 0.8f, 0.8f, 1.0f));
+}
+
+// assimp-testmodels regr01.mtl names a material "Terraind\xe6k" (Latin-1): the writer
+// refused it ("materials[8]: name: not valid UTF-8") and the model failed.
+TEST(ObjToAsset, Regr01_Latin1NamesAreReadAsLatin1AndWellFormedUtf8IsKept) {
+  ObjFixture f;
+  f.Block("Terraind\xe6k", "h\xf8j");
+  f.FlatTri(0);
+  f.Block("\xd1\x81\xd1\x82\xd0\xb5\xd0\xbd\xd0\xb0", "ok");  // "стена"
+  f.FlatTri(1);
+  f.Block("overlong\xc0\xaf", "cut\xe2\x82");  // an overlong '/' and a truncated sequence
+  f.FlatTri(2);
+  const MtlData mtl{.materials = {Mtl("Terraind\xe6k"), Mtl("\xd1\x81\xd1\x82\xd0\xb5\xd0\xbd\xd0\xb0"),
+                                  Mtl("overlong\xc0\xaf")}};
+  ObjAssetOptions options = Options();
+  options.grouping = NodeGrouping::kPerObject;
+  const auto r = BuildAssetFromObj(f.obj, &mtl, options);
+  ASSERT_BUILT(r);
+  ASSERT_EQ(r->asset.materials.size(), 3u);
+  EXPECT_EQ(r->asset.materials[0].name, "Terraind\xc3\xa6k");
+  EXPECT_EQ(r->asset.materials[1].name, "\xd1\x81\xd1\x82\xd0\xb5\xd0\xbd\xd0\xb0");
+  EXPECT_EQ(r->asset.materials[2].name, "overlong\xc3\x80\xc2\xaf");
+  ASSERT_EQ(r->asset.nodes.size(), 3u);
+  EXPECT_EQ(r->asset.nodes[0].name, "h\xc3\xb8j");
+  EXPECT_EQ(r->asset.nodes[2].name, "cut\xc3\xa2\xc2\x82");
+  EXPECT_THAT(WarningCodes(*r), ElementsAre("name_not_utf8", "name_not_utf8", "name_not_utf8", "name_not_utf8"));
+  EXPECT_THAT(r->warnings[0].message, HasSubstr("model.obj: object name 'h\xc3\xb8j' is not UTF-8"));
+  EXPECT_OK(WriteGlb(r->asset).status());
 }
 
 TEST(ObjToAsset, UndefinedUsemtlGivesADefaultMaterialOfThatName) {

@@ -39,5 +39,19 @@ TEST(SceneNetLabels, EmptyAndOddNamesAreOtherStructure) {
   EXPECT_EQ(SceneNetStructure("Kitchen_Floor_Tiles"), Structure::kFloor);
 }
 
+// Docs 3.3: cut at the first '.', delete '_' and digits, keep case. The quirks: "Walls.132"
+// and "metal_plastic.001" name folders the library does not have.
+TEST(SceneNetTextureFolder, FollowsTheReferenceLoaderRule) {
+  EXPECT_EQ(SceneNetTextureFolder("wall.034"), "wall");
+  EXPECT_EQ(SceneNetTextureFolder("Walls.132"), "Walls");
+  EXPECT_EQ(SceneNetTextureFolder("metal_plastic.001"), "metalplastic");
+  EXPECT_EQ(SceneNetTextureFolder("chair_fx_mat.001"), "chairfxmat");
+  EXPECT_EQ(SceneNetTextureFolder("decoration.008_sphere.008"), "decoration");
+  EXPECT_EQ(SceneNetTextureFolder("walls1_line01_12"), "wallsline");
+  EXPECT_EQ(SceneNetTextureFolder("wood"), "wood");
+  EXPECT_EQ(SceneNetTextureFolder(".001"), "");
+  EXPECT_EQ(SceneNetTextureFolder(""), "");
+}
+
 }  // namespace
 }  // namespace solid::convert

@@ -1,11 +1,9 @@
 #include "solid/formats/glb.h"
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -18,6 +16,8 @@
 #include <random>
 #include <string>
 
+#include "fixtures/gltf_validator.h"
+#include "fixtures/triangle_match.h"
 #include "formats/test_util.h"
 #include "solid/formats/image_codec.h"
 
@@ -195,116 +195,12 @@ void ExpectSameNonGeometry(const Asset& in, const Asset& out) {
   }
 }
 
-double Extent(const std::vector<float>& values, int components) {
-  double extent = 0;
-  for (int k = 0; k < components; ++k) {
-    float lo = values[k], hi = values[k];
-    for (size_t i = k; i < values.size(); i += components) {
-      lo = std::min(lo, values[i]);
-      hi = std::max(hi, values[i]);
-    }
-    extent = std::max(extent, static_cast<double>(hi) - lo);
-  }
-  return extent;
-}
-
-struct Fidelity {
-  size_t unmatched = 0;
-  double max_error = 0;  // largest per-axis position error of the best match of each triangle
-  double diagonal = 0;   // of the input's bounding box
-};
-
-// Every input triangle must appear in the output with the same winding (up to a
-// rotation of its corners), each corner within one quantization step per axis:
-// Draco quantizes all axes with one step, extent / (2^bits - 1), and rounds, so
-// a step is twice the worst case. UVs likewise; normals within 1 degree (10-bit
-// octahedral steps are about 0.2 degrees).
-Fidelity MatchTriangles(const Primitive& in, const Primitive& out, const DracoOptions& o) {
-  const double extent = Extent(in.positions, 3);
-  const double tol = extent / ((1 << o.position_bits) - 1) + 1e-6 * extent;
-  const double uv_tol = in.uvs.empty() ? 0 : Extent(in.uvs, 2) / ((1 << o.texcoord_bits) - 1) + 1e-6;
-  const double normal_cos = std::cos(std::numbers::pi / 180);
-
-  // Hash grid of output vertices, cells one tolerance wide: neighbours lie in the 27 cells around.
-  std::map<std::array<int64_t, 3>, std::vector<uint32_t>> grid;
-  auto cell = [&](const float* p) {
-    return std::array<int64_t, 3>{static_cast<int64_t>(std::floor(p[0] / tol)),
-                                  static_cast<int64_t>(std::floor(p[1] / tol)),
-                                  static_cast<int64_t>(std::floor(p[2] / tol))};
-  };
-  const size_t n_out = out.positions.size() / 3;
-  for (uint32_t v = 0; v < n_out; ++v) grid[cell(&out.positions[3 * v])].push_back(v);
-  std::vector<std::vector<uint32_t>> corners_of(n_out);  // output vertex -> output corners
-  for (uint32_t c = 0; c < out.indices.size(); ++c) corners_of[out.indices[c]].push_back(c);
-
-  // Per-axis position error, or -1 when the corners do not match in every attribute.
-  auto corner_error = [&](uint32_t a, uint32_t b) {
-    double e = 0;
-    for (int k = 0; k < 3; ++k) {
-      e = std::max(e, std::abs(static_cast<double>(in.positions[3 * a + k]) - out.positions[3 * b + k]));
-    }
-    if (e > tol) return -1.0;
-    if (!in.uvs.empty()) {
-      for (int k = 0; k < 2; ++k) {
-        if (std::abs(in.uvs[2 * a + k] - out.uvs[2 * b + k]) > uv_tol) return -1.0;
-      }
-    }
-    if (!in.normals.empty()) {
-      double dot = 0;
-      for (int k = 0; k < 3; ++k) dot += static_cast<double>(in.normals[3 * a + k]) * out.normals[3 * b + k];
-      if (dot < normal_cos) return -1.0;
-    }
-    return e;
-  };
-
-  Fidelity f;
-  for (int k = 0; k < 3; ++k) {
-    float lo = in.positions[k], hi = in.positions[k];
-    for (size_t i = k; i < in.positions.size(); i += 3) {
-      lo = std::min(lo, in.positions[i]);
-      hi = std::max(hi, in.positions[i]);
-    }
-    f.diagonal += (static_cast<double>(hi) - lo) * (static_cast<double>(hi) - lo);
-  }
-  f.diagonal = std::sqrt(f.diagonal);
-
-  for (size_t t = 0; t < in.indices.size() / 3; ++t) {
-    const uint32_t a = in.indices[3 * t], b = in.indices[3 * t + 1], c = in.indices[3 * t + 2];
-    const auto center = cell(&in.positions[3 * a]);
-    double best = -1;
-    for (int64_t dx = -1; dx <= 1; ++dx) {
-      for (int64_t dy = -1; dy <= 1; ++dy) {
-        for (int64_t dz = -1; dz <= 1; ++dz) {
-          auto it = grid.find({center[0] + dx, center[1] + dy, center[2] + dz});
-          if (it == grid.end()) continue;
-          for (uint32_t v : it->second) {
-            for (uint32_t corner : corners_of[v]) {
-              const uint32_t base = corner - corner % 3;
-              const uint32_t vb = out.indices[base + (corner + 1) % 3], vc = out.indices[base + (corner + 2) % 3];
-              const double ea = corner_error(a, v), eb = corner_error(b, vb), ec = corner_error(c, vc);
-              if (ea < 0 || eb < 0 || ec < 0) continue;
-              const double e = std::max({ea, eb, ec});
-              if (best < 0 || e < best) best = e;
-            }
-          }
-        }
-      }
-    }
-    if (best < 0) {
-      ++f.unmatched;
-    } else {
-      f.max_error = std::max(f.max_error, best);
-    }
-  }
-  return f;
-}
-
 void ExpectFaithful(const Asset& in, const Asset& out, const DracoOptions& o = {}) {
   ASSERT_EQ(in.nodes.size(), out.nodes.size());
   for (size_t i = 0; i < in.nodes.size(); ++i) {
     ASSERT_EQ(in.nodes[i].primitives.size(), out.nodes[i].primitives.size());
     for (size_t j = 0; j < in.nodes[i].primitives.size(); ++j) {
-      const Fidelity f = MatchTriangles(in.nodes[i].primitives[j], out.nodes[i].primitives[j], o);
+      const fixtures::Fidelity f = fixtures::MatchTriangles(in.nodes[i].primitives[j], out.nodes[i].primitives[j], o);
       EXPECT_EQ(f.unmatched, 0u) << in.nodes[i].name << " primitive " << j;
     }
   }
@@ -431,7 +327,7 @@ TEST(GltfWriter, TorusFidelityAndAccessors) {
   const auto glb = Write(in, options);
   const Asset out = Read(glb);
   ExpectSameNonGeometry(in, out);
-  const Fidelity f = MatchTriangles(in.nodes[0].primitives[0], out.nodes[0].primitives[0], options);
+  const fixtures::Fidelity f = fixtures::MatchTriangles(in.nodes[0].primitives[0], out.nodes[0].primitives[0], options);
   EXPECT_EQ(f.unmatched, 0u);
   const Glb parts = Unpack(glb);
   const size_t triangles = in.nodes[0].primitives[0].indices.size() / 3;
@@ -474,7 +370,7 @@ TEST(GltfWriter, QuantizationBitsTradeSizeForError) {
     DracoOptions o;
     o.position_bits = bits;
     const auto glb = Write(in, o);
-    const Fidelity f = MatchTriangles(in.nodes[0].primitives[0], Read(glb).nodes[0].primitives[0], o);
+    const fixtures::Fidelity f = fixtures::MatchTriangles(in.nodes[0].primitives[0], Read(glb).nodes[0].primitives[0], o);
     EXPECT_EQ(f.unmatched, 0u) << bits << " bits";
     EXPECT_GT(glb.size(), previous_size) << bits << " bits";
     EXPECT_LT(f.max_error, previous_error) << bits << " bits";
@@ -684,86 +580,19 @@ TEST(GltfReader, SurvivesRandomByteFlips) {
 // ---------------------------------------------------------------------------
 // Khronos glTF-Validator
 
-std::string ShellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-// The same file with every Draco primitive replaced by plain accessors holding what
-// the decoder produces. The validator does not decode Draco (it reports
-// UNSUPPORTED_EXTENSION), but on this copy it checks the data against our
-// accessors: POSITION min/max, index range, unit normals.
-std::vector<uint8_t> Decompress(const std::vector<uint8_t>& glb) {
-  Glb g = Unpack(glb);
-  const Asset a = Read(glb);
-  json& gltf = g.gltf;
-  auto add_view = [&](const void* data, size_t size, int target) {
-    g.bin.resize((g.bin.size() + 3) & ~size_t{3}, 0);
-    gltf["bufferViews"].push_back(
-        {{"buffer", 0}, {"byteOffset", g.bin.size()}, {"byteLength", size}, {"target", target}});
-    const auto* bytes = static_cast<const uint8_t*>(data);
-    g.bin.insert(g.bin.end(), bytes, bytes + size);
-    return gltf["bufferViews"].size() - 1;
-  };
-  for (size_t m = 0; m < a.nodes.size(); ++m) {
-    for (size_t j = 0; j < a.nodes[m].primitives.size(); ++j) {
-      json& prim = gltf["meshes"][m]["primitives"][j];
-      const Primitive& p = a.nodes[m].primitives[j];
-      for (const auto& [semantic, values] :
-           {std::pair{"POSITION", &p.positions}, std::pair{"NORMAL", &p.normals}, std::pair{"TEXCOORD_0", &p.uvs}}) {
-        if (!prim["attributes"].contains(semantic)) continue;
-        gltf["accessors"][prim["attributes"][semantic].get<size_t>()]["bufferView"] =
-            add_view(values->data(), values->size() * sizeof(float), 34962);
-      }
-      json& indices = gltf["accessors"][prim["indices"].get<size_t>()];
-      if (indices["componentType"] == 5123) {
-        const std::vector<uint16_t> narrow(p.indices.begin(), p.indices.end());
-        indices["bufferView"] = add_view(narrow.data(), narrow.size() * 2, 34963);
-      } else {
-        indices["bufferView"] = add_view(p.indices.data(), p.indices.size() * 4, 34963);
-      }
-      prim.erase("extensions");
-    }
-  }
-  gltf.erase("extensionsUsed");
-  gltf.erase("extensionsRequired");
-  g.bin.resize((g.bin.size() + 3) & ~size_t{3}, 0);
-  gltf["buffers"][0]["byteLength"] = g.bin.size();
-  return Pack(g);
-}
-
-// Runs validate_gltf.mjs over `files`; returns its exit status and output.
-std::pair<int, std::string> RunValidator(const std::filesystem::path& modules, const std::filesystem::path& dir,
-                                         const std::vector<std::string>& files) {
-  std::string command = "SOLID_GLTF_VALIDATOR_DIR=" + ShellQuote(modules.string()) + " node " +
-                        ShellQuote(std::string(SOLID_SOURCE_DIR) + "/tests/convert/validate_gltf.mjs");
-  for (const std::string& f : files) command += " " + ShellQuote((dir / f).string());
-  const auto log = dir / "validator.log";
-  command += " >" + ShellQuote(log.string()) + " 2>&1";
-  const int status = std::system(command.c_str());
-  std::ifstream in(log);
-  std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, std::move(report)};
-}
-
 void WriteFile(const std::filesystem::path& path, const std::vector<uint8_t>& bytes) {
   std::ofstream(path, std::ios::binary)
       .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
 }
 
+std::vector<uint8_t> Decompress(const std::vector<uint8_t>& glb) {
+  auto plain = fixtures::DecompressDraco(glb, "test.glb");
+  EXPECT_TRUE(plain.ok()) << plain.status().ToString();
+  return plain.ok() ? std::move(plain).value() : std::vector<uint8_t>{};
+}
+
 TEST(GltfWriter, KhronosValidatorReportsNoErrors) {
-  const char* env = std::getenv("SOLID_GLTF_VALIDATOR_DIR");
-  const std::filesystem::path modules =
-      env != nullptr && *env != '\0' ? std::filesystem::path(env)
-                                     : std::filesystem::path(SOLID_SOURCE_DIR) / "tests/convert/node/node_modules";
-  if (std::system("node --version >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "node not found; install Node.js and run: npm ci --prefix tests/convert/node";
-  }
-  if (!std::filesystem::exists(modules / "gltf-validator" / "package.json")) {
-    GTEST_SKIP() << "npm package gltf-validator not found in " << modules
-                 << "; run: npm ci --prefix tests/convert/node (or set SOLID_GLTF_VALIDATOR_DIR)";
-  }
+  if (auto why = fixtures::GltfValidatorUnavailable()) GTEST_SKIP() << *why;
   TempDir dir;
   Asset torus;
   torus.nodes.push_back({"torus", {Torus(100, 50, 1.0f, 0.3f)}, json::object()});
@@ -771,24 +600,25 @@ TEST(GltfWriter, KhronosValidatorReportsNoErrors) {
                                                              {"textured.glb", TexturedAsset()},
                                                              {"multi.glb", MultiNodeAsset()},
                                                              {"torus.glb", torus}};
-  std::vector<std::string> files;
+  std::vector<std::filesystem::path> files;
   for (const auto& [name, asset] : assets) {
     const auto glb = Write(asset);
     WriteFile(dir.path() / name, glb);
     WriteFile(dir.path() / ("decompressed-" + name), Decompress(glb));
-    files.insert(files.end(), {name, "decompressed-" + name});
+    files.insert(files.end(), {dir.path() / name, dir.path() / ("decompressed-" + name)});
   }
-  const auto [status, report] = RunValidator(modules, dir.path(), files);
-  std::cout << report;
-  EXPECT_EQ(status, 0) << report;
+  const fixtures::GltfValidatorRun run = fixtures::RunGltfValidator(files);
+  std::cout << run.report;
+  EXPECT_EQ(run.exit_status, 0) << run.report;
+  EXPECT_EQ(run.files_reported, files.size()) << run.report;
 
   // Negative control: the validator does check decoded data against our accessors.
   Glb wrong = Unpack(Decompress(Write(CubeAsset())));
   wrong.gltf["accessors"][0]["min"][0] = -100.0;
   WriteFile(dir.path() / "wrong-min.glb", Pack(wrong));
-  const auto [wrong_status, wrong_report] = RunValidator(modules, dir.path(), {"wrong-min.glb"});
-  EXPECT_EQ(wrong_status, 1) << wrong_report;
-  EXPECT_NE(wrong_report.find("ACCESSOR_MIN_MISMATCH"), std::string::npos) << wrong_report;
+  const fixtures::GltfValidatorRun wrong_run = fixtures::RunGltfValidator({dir.path() / "wrong-min.glb"});
+  EXPECT_EQ(wrong_run.exit_status, 1) << wrong_run.report;
+  EXPECT_NE(wrong_run.report.find("ACCESSOR_MIN_MISMATCH"), std::string::npos) << wrong_run.report;
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 //   OUT/rooms/<scene key>.glb            SceneNet (key = path below the root, no extension)
 //   OUT/rooms/procedural/room-NNNNNN.glb      (key "procedural/room-NNNNNN")
 //   OUT/catalog.sqlite                   one row per asset (schemas/catalog.sql)
+//   OUT/textures/<category>/...          SceneNet with texture_library: ROOT/texture_library copied
 //
 // Every asset is converted alone: a bad one becomes a `failed` row with a reason naming
 // the file and line, and the batch goes on. Files are published atomically and the
@@ -46,8 +47,25 @@ struct ConvertOptions {
   gltf::DracoOptions draco;
   bool retry_failed = false;         // reconvert assets whose row says failed with unchanged inputs
   bool keep_all_room_objects = false;  // SceneNet: keep every object, not only walls, floors, ceilings
+  // SceneNet: also run the texture-library step (CopySceneNetTextureLibrary from
+  // ROOT/texture_library to OUT/textures) and record in each room's catalog extras
+  // "unmatched_texture_folders": [{"material", "folder"}] for its materials whose derived
+  // folder (SceneNetTextureFolder) is missing or empty in the library, i.e. that render
+  // from textures/unknown/. A missing ROOT/texture_library is then a fatal kNotFound.
+  bool texture_library = false;
   ProgressCallback progress;         // assets done / total
   std::function<void(const ItemOutcome&)> on_item;  // called from the calling thread
+};
+
+// What the SceneNet texture-library step did.
+struct TextureLibraryReport {
+  std::vector<std::string> categories;  // library folders holding at least one file, sorted
+  int64_t files_copied = 0;             // written (new, or different from the library's)
+  int64_t files_up_to_date = 0;         // already identical in the output
+  bool unknown_created = false;         // textures/unknown/ got the placeholder image
+  // Rooms' material names whose derived folder is not among `categories` -> that folder
+  // (filled by ConvertSceneNet from the catalog rows of the rooms considered).
+  std::map<std::string, std::string> unmatched;
 };
 
 struct ConvertReport {
@@ -58,6 +76,7 @@ struct ConvertReport {
   int64_t bytes_in = 0, bytes_out = 0;
   double seconds = 0;
   std::filesystem::path catalog;
+  std::optional<TextureLibraryReport> textures;  // SceneNet with options.texture_library
 };
 
 // Fatal errors (a root that is not a ShapeNet tree, an output that cannot be created)
@@ -66,6 +85,20 @@ Result<ConvertReport> ConvertShapeNet(const std::filesystem::path& root, const s
                                       const ConvertOptions& options);
 Result<ConvertReport> ConvertSceneNet(const std::filesystem::path& root, const std::filesystem::path& out,
                                       const ConvertOptions& options);
+
+// The texture-library step of docs "input-formats" 4 (SceneNet output 3), on its own:
+// copies every regular file of each `library/<category>/` (no deeper) to
+// `textures/<category>/`, each written through a temporary sibling and renamed, and skips
+// files already there with the same size and XXH64, so a rerun or an interrupted run
+// converges to the same tree. Files in `textures` that the library lacks are left alone.
+// Then, when `textures/unknown/` holds no file (the library has none: it "does not exist
+// after download"), writes `textures/unknown/placeholder_grey.png`: the reference loader
+// sends unmatched materials there and fails on an empty folder; flat grey is the colour
+// the SceneNet MTLs give every material (Kd 0.64). Folder and file names starting with '.'
+// and our temporary files are skipped. Errors: kNotFound (no library folder), kIoError
+// naming the file. `unmatched` is left empty.
+Result<TextureLibraryReport> CopySceneNetTextureLibrary(const std::filesystem::path& library,
+                                                        const std::filesystem::path& textures);
 
 struct ProceduralSet {
   int models = 64;

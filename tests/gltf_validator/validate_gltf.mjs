@@ -1,19 +1,19 @@
 // Runs the Khronos glTF-Validator (npm package gltf-validator) over .glb files.
 //
-//   node tests/convert/validate_gltf.mjs a.glb b.glb ...
+//   node tests/gltf_validator/validate_gltf.mjs a.glb b.glb ...
 //
 // Prints each report's counts and every message; exits 1 if any file has an error
 // (warnings, infos and hints are printed but pass), 2 on usage or setup problems.
 // The package is looked up in $SOLID_GLTF_VALIDATOR_DIR (a node_modules folder),
-// else in node/node_modules beside this script; install it with
-//   npm ci --prefix tests/convert/node
+// else in node_modules beside this script; install it with
+//   npm ci --prefix tests/gltf_validator
 import { readFile } from 'node:fs/promises';
 import { createRequire } from 'node:module';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
-const modules = process.env.SOLID_GLTF_VALIDATOR_DIR || path.join(here, 'node', 'node_modules');
+const modules = process.env.SOLID_GLTF_VALIDATOR_DIR || path.join(here, 'node_modules');
 const files = process.argv.slice(2);
 if (files.length === 0) {
   console.error('usage: node validate_gltf.mjs FILE.glb...');
