@@ -135,7 +135,7 @@ Command AddSample(CLI::App& app) {
   cmd->add_option("--export-scene", f->export_index, "Write layout I as a glTF scene to --out instead of sampling")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out,-o", f->export_path, "Output .glb for --export-scene");
-  return [f, cmd] {
+  return [f, cmd]() -> int {
     if (f->params.empty() && f->preset.empty()) {
       fmt::print(stderr, "solid sample: give --params FILE or --preset NAME\n{}", cmd->help());
       return kExitUsage;
