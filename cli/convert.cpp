@@ -113,6 +113,11 @@ Command AddConvert(CLI::App& app) {
   procedural->add_option("--models", f->procedural.models, "Number of shapes")->capture_default_str();
   procedural->add_option("--rooms", f->procedural.rooms, "Number of rooms")->capture_default_str();
   procedural->add_option("--seed", f->procedural.seed, "Seed")->capture_default_str();
+  procedural->add_option("--min-triangles", f->procedural.shapes.min_triangles,
+                         "Fewest triangles of a shape (counts are drawn log-uniformly in the range)")
+      ->capture_default_str();
+  procedural->add_option("--max-triangles", f->procedural.shapes.max_triangles, "Most triangles of a shape")
+      ->capture_default_str();
   AddCommonFlags(procedural, f.get());
   return [f, shapenet, scenenet] {
     if (shapenet->parsed()) {

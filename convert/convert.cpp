@@ -720,6 +720,7 @@ Result<TextureLibraryReport> CopySceneNetTextureLibrary(const fs::path& library,
 
 Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path& out, const ConvertOptions& options) {
   if (set.models < 0 || set.rooms < 0) return InvalidArgumentError("--models and --rooms must not be negative");
+  SOLID_RETURN_IF_ERROR(CheckProceduralShapeOptions(set.shapes).WithContext("procedural shapes"));
   std::vector<Job> jobs;
   auto add = [&](bool room, int i) {
     Job job;
@@ -730,10 +731,15 @@ Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path
     job.output = fs::path(room ? "rooms" : "models") / "procedural" / (name + ".glb");
     job.input_root = out;
     job.generator_identity = fmt::format("procedural {} seed {} index {}", room ? "room" : "shape", Hex64(set.seed), i);
+    const ProceduralShapeOptions shapes = set.shapes;
+    if (!room) {
+      job.generator_identity += fmt::format(" triangles {}-{} texture {}", shapes.min_triangles, shapes.max_triangles,
+                                            shapes.texture_size);
+    }
     std::string key = job.key;
     uint64_t seed = set.seed;
-    job.convert = [room, i, key, seed]() -> std::variant<Converted, AssetFailure> {
-      Result<Asset> asset = room ? MakeProceduralRoom(seed, i, key) : MakeProceduralShape(seed, i, key);
+    job.convert = [room, i, key, seed, shapes]() -> std::variant<Converted, AssetFailure> {
+      Result<Asset> asset = room ? MakeProceduralRoom(seed, i, key) : MakeProceduralShape(seed, i, key, shapes);
       if (!asset.ok()) return AssetFailure{"generator_error", asset.status().message()};
       Converted c;
       c.asset = std::move(asset).value();

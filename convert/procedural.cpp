@@ -959,20 +959,25 @@ std::string_view ShapeFamilyName(ShapeFamily f) {
   return "unknown";
 }
 
+Status CheckProceduralShapeOptions(const ProceduralShapeOptions& options) {
+  if (options.min_triangles < kMinProceduralTriangles ||
+      static_cast<double>(options.max_triangles) < 1.25 * options.min_triangles ||
+      options.max_triangles > kMaxProceduralTriangles) {
+    return InvalidArgumentError(fmt::format("triangle range [{}, {}] must satisfy {} <= min, max >= 1.25 min, max <= {}",
+                                            options.min_triangles, options.max_triangles, kMinProceduralTriangles,
+                                            kMaxProceduralTriangles));
+  }
+  if (options.texture_size < 4 || options.texture_size > 4096) {
+    return InvalidArgumentError(fmt::format("texture_size {} outside [4, 4096]", options.texture_size));
+  }
+  return Status::Ok();
+}
+
 Result<Asset> MakeProceduralShape(uint64_t seed, int index, const std::string& key,
                                   const ProceduralShapeOptions& options) {
   const std::string where = fmt::format("procedural shape {} (seed {})", index, SeedHex(seed));
   if (index < 0) return InvalidArgumentError(where + ": index must be >= 0");
-  if (options.min_triangles < kMinProceduralTriangles ||
-      static_cast<double>(options.max_triangles) < 1.25 * options.min_triangles ||
-      options.max_triangles > kMaxProceduralTriangles) {
-    return InvalidArgumentError(fmt::format("{}: triangle range [{}, {}] must satisfy {} <= min, max >= 1.25 min, max <= {}",
-                                            where, options.min_triangles, options.max_triangles,
-                                            kMinProceduralTriangles, kMaxProceduralTriangles));
-  }
-  if (options.texture_size < 4 || options.texture_size > 4096) {
-    return InvalidArgumentError(fmt::format("{}: texture_size {} outside [4, 4096]", where, options.texture_size));
-  }
+  SOLID_RETURN_IF_ERROR(CheckProceduralShapeOptions(options).WithContext(where));
 
   const uint64_t item = MixSeed(seed, static_cast<uint64_t>(index));
   Rng geometry(item, kShapeGeometryStream);

@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <thread>
@@ -15,32 +16,35 @@ namespace {
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
 constexpr int kMaxTruncationSamples = 4096;
 
-// The intersect context of an object ray: Embree hands it back to the filter, which
-// records what the ray crosses. Embree's context must be the first member.
+// Rays go in 4x4 pixel tiles as one Embree packet: coherent primary rays traverse the
+// BVHs together, about three times faster than one by one here (bench/mask_pass_bench).
+constexpr int kTile = 4;
+constexpr int kLanes = kTile * kTile;
+
+// The intersect context of an object packet: Embree hands it back to the filter, which
+// records what each ray crosses. Embree's context must be the first member.
 struct CrossingContext {
   RTCIntersectContext base;
-  uint32_t pixel = 0;
-  float nearest_t = kInfinity;
-  uint32_t nearest = RTC_INVALID_GEOMETRY_ID;
-  uint32_t* last_pixel = nullptr;  // per object: the last pixel marked, for de-duplication
+  uint32_t pixel[kLanes] = {};
+  float nearest_t[kLanes] = {};
+  uint32_t nearest[kLanes] = {};
   uint8_t* const* full = nullptr;  // per object: its full mask, row-major
 };
 
 void RecordCrossings(const RTCFilterFunctionNArguments* args) {
   auto* ctx = reinterpret_cast<CrossingContext*>(const_cast<RTCIntersectContext*>(args->context));
+  // Embree calls with N = the packet width; lane i is lane i of the packet, also when it
+  // traverses one ray of the packet alone.
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     // During the filter call Embree has set the ray's tfar to the candidate hit's distance.
     const float t = RTCRayN_tfar(args->ray, args->N, i);
     const uint32_t object = RTCHitN_instID(args->hit, args->N, i, 0);
-    if (t < ctx->nearest_t) {
-      ctx->nearest_t = t;
-      ctx->nearest = object;
+    if (t < ctx->nearest_t[i]) {
+      ctx->nearest_t[i] = t;
+      ctx->nearest[i] = object;
     }
-    if (ctx->last_pixel[object] != ctx->pixel) {
-      ctx->last_pixel[object] = ctx->pixel;
-      ctx->full[object][ctx->pixel] = 1;
-    }
+    ctx->full[object][ctx->pixel[i]] = 1;
     args->valid[i] = 0;  // reject: traversal goes on to farther surfaces
   }
 }
@@ -59,6 +63,23 @@ RTCRayHit MakeRay(Vec3 origin, Vec3 direction, float tnear) {
   r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   return r;
+}
+
+void SetLane(RTCRayHit16* packet, int i, Vec3 origin, Vec3 direction, float tnear) {
+  packet->ray.org_x[i] = static_cast<float>(origin.x);
+  packet->ray.org_y[i] = static_cast<float>(origin.y);
+  packet->ray.org_z[i] = static_cast<float>(origin.z);
+  packet->ray.dir_x[i] = static_cast<float>(direction.x);
+  packet->ray.dir_y[i] = static_cast<float>(direction.y);
+  packet->ray.dir_z[i] = static_cast<float>(direction.z);
+  packet->ray.tnear[i] = tnear;
+  packet->ray.tfar[i] = kInfinity;
+  packet->ray.time[i] = 0;
+  packet->ray.mask[i] = UINT32_MAX;
+  packet->ray.id[i] = 0;
+  packet->ray.flags[i] = 0;
+  packet->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+  packet->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
 }
 
 // A top-level scene of the layout's objects, instance id = placement index.
@@ -157,49 +178,60 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
   const Vec3 eye = CameraPosition(cam);
   const float tnear = static_cast<float>(layout.near);
 
-  auto trace_rows = [&](int y_begin, int y_end) {
-    std::vector<uint32_t> last_pixel(objects, UINT32_MAX);
+  // Threads take tile rows from a shared counter: objects crowd some rows (near the
+  // floor) and leave others (walls, ceiling) nearly free, so fixed bands balance badly.
+  // Each tile is one packet against the room and one against the objects.
+  const int tile_rows = (h + kTile - 1) / kTile;
+  std::atomic<int> next_tile_row{0};
+  auto trace_tile_rows = [&] {
     CrossingContext ctx;
     rtcInitIntersectContext(&ctx.base);
     ctx.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     ctx.base.filter = RecordCrossings;
-    ctx.last_pixel = last_pixel.data();
     ctx.full = full_rows.data();
     RTCIntersectContext room_ctx;
     rtcInitIntersectContext(&room_ctx);
     room_ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    for (int y = y_begin; y < y_end; ++y) {
-      for (int x = 0; x < w; ++x) {
-        const uint32_t pixel = static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x);
-        const Vec3 raw = RayDirection(cam, x + 0.5, y + 0.5);
-        const double length = Length(raw);
-        const Vec3 d = raw * (1.0 / length);
-        // Depth along -Z: raw has camera-space z = -1, so depth = t / length.
-        RTCRayHit room_ray = MakeRay(eye, d, tnear);
-        rtcIntersect1(room, &room_ctx, &room_ray);
-        const float room_t = room_ray.hit.geomID != RTC_INVALID_GEOMETRY_ID ? room_ray.ray.tfar : kInfinity;
-        float nearest_t = room_t;
-        if (objects > 0) {
-          RTCRayHit object_ray = MakeRay(eye, d, tnear);
-          ctx.pixel = pixel;
-          ctx.nearest_t = kInfinity;
-          ctx.nearest = RTC_INVALID_GEOMETRY_ID;
-          rtcIntersect1(object_scene.get(), &ctx.base, &object_ray);
-          if (ctx.nearest != RTC_INVALID_GEOMETRY_ID && ctx.nearest_t < room_t) {
-            out.ids[pixel] = ctx.nearest + 1;
-            nearest_t = ctx.nearest_t;
-          }
+    alignas(64) int valid[kLanes];
+    float length[kLanes];
+    RTCRayHit16 room_rays, object_rays;
+    for (int tile_y; (tile_y = next_tile_row.fetch_add(1, std::memory_order_relaxed)) < tile_rows;) {
+      for (int x0 = 0; x0 < w; x0 += kTile) {
+        for (int i = 0; i < kLanes; ++i) {
+          const int x = x0 + i % kTile, y = tile_y * kTile + i / kTile;
+          valid[i] = x < w && y < h ? -1 : 0;
+          ctx.pixel[i] = valid[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
+          ctx.nearest_t[i] = kInfinity;
+          ctx.nearest[i] = RTC_INVALID_GEOMETRY_ID;
+          const Vec3 raw = RayDirection(cam, x + 0.5, y + 0.5);
+          length[i] = static_cast<float>(Length(raw));
+          // Depth along -Z: raw has camera-space z = -1, so depth = t / length.
+          SetLane(&room_rays, i, eye, raw * (1.0 / Length(raw)), tnear);
         }
-        out.depth[pixel] = nearest_t == kInfinity ? kInfinity : static_cast<float>(nearest_t / length);
+        object_rays = room_rays;
+        rtcIntersect16(valid, room, &room_ctx, &room_rays);
+        if (objects > 0) rtcIntersect16(valid, object_scene.get(), &ctx.base, &object_rays);
+        for (int i = 0; i < kLanes; ++i) {
+          if (!valid[i]) continue;
+          const uint32_t pixel = ctx.pixel[i];
+          const float room_t =
+              room_rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? room_rays.ray.tfar[i] : kInfinity;
+          float nearest_t = room_t;
+          if (ctx.nearest[i] != RTC_INVALID_GEOMETRY_ID && ctx.nearest_t[i] < room_t) {
+            out.ids[pixel] = ctx.nearest[i] + 1;
+            nearest_t = ctx.nearest_t[i];
+          }
+          out.depth[pixel] = nearest_t == kInfinity ? kInfinity : nearest_t / length[i];
+        }
       }
     }
   };
-  const int threads = std::clamp(options.threads, 1, std::max(1, h));
+  const int threads = std::clamp(options.threads, 1, std::max(1, tile_rows));
   if (threads == 1) {
-    trace_rows(0, h);
+    trace_tile_rows();
   } else {
     std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) pool.emplace_back(trace_rows, h * t / threads, h * (t + 1) / threads);
+    for (int t = 0; t < threads; ++t) pool.emplace_back(trace_tile_rows);
     for (std::thread& t : pool) t.join();
   }
 

@@ -24,6 +24,7 @@
 
 #include "solid/formats/glb.h"
 #include "solid/formats/progress.h"
+#include "solid/convert/procedural.h"
 #include "solid/formats/status.h"
 
 namespace solid::convert {
@@ -104,6 +105,7 @@ struct ProceduralSet {
   int models = 64;
   int rooms = 8;
   uint64_t seed = 1;
+  ProceduralShapeOptions shapes;  // part of each shape's identity: a new range reconverts
 };
 Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const std::filesystem::path& out,
                                         const ConvertOptions& options);

@@ -35,6 +35,9 @@ struct ProceduralShapeOptions {
   int texture_size = 128;     // square, PNG, in [4, 4096]
 };
 
+// kInvalidArgument naming the rule an out-of-range option breaks.
+Status CheckProceduralShapeOptions(const ProceduralShapeOptions& options);
+
 // Model i of the default set: family i % kShapeFamilyCount, parameters from (seed, i).
 // Node name = key ("procedural/shape-000042"); one or two materials with a procedural
 // texture (checker, stripes, noise or flat colour) and UVs. Closed meshes wound
