@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -60,6 +63,53 @@ void AddQuad(MeshGeometry& m, Vec3 a, Vec3 b, Vec3 c, Vec3 d, Vec3 normal, Struc
     m.triangle_material.push_back(0);
     m.triangle_structure.push_back(structure);
   }
+}
+
+// Floor and ceiling triangles that bound the valid volume (solid-method.md 2.2): facing
+// up or down (|n_z| >= 0.9), in edge-connected surfaces of at least 0.1 m^2, so that
+// slivers, ledges and sloped pieces marked floor or ceiling do not open columns.
+// Edges connect by bit-identical endpoint positions: converters may split vertices
+// (per normal or UV) that lie at the same place.
+std::vector<bool> LatticeSurfaces(const MeshGeometry& mesh) {
+  constexpr double kMinNormalZ = 0.9, kMinArea = 0.1;
+  const size_t n = mesh.TriangleCount();
+  std::vector<bool> keep(n, false);
+  std::vector<double> area(n, 0);
+  std::vector<uint32_t> parent(n);
+  for (size_t t = 0; t < n; ++t) parent[t] = static_cast<uint32_t>(t);
+  auto find = [&](uint32_t t) {
+    while (parent[t] != t) t = parent[t] = parent[parent[t]];
+    return t;
+  };
+  using Position = std::array<float, 3>;
+  std::map<std::pair<Position, Position>, uint32_t> first_with_edge;
+  for (size_t t = 0; t < n; ++t) {
+    const Structure s = mesh.triangle_structure[t];
+    if (s != Structure::kFloor && s != Structure::kCeiling) continue;
+    const Vec3 a = Vertex(mesh, mesh.indices[3 * t]), b = Vertex(mesh, mesh.indices[3 * t + 1]),
+               c = Vertex(mesh, mesh.indices[3 * t + 2]);
+    const Vec3 normal = Cross(b - a, c - a);
+    const double twice_area = Length(normal);
+    if (!(twice_area > 0) || std::fabs(normal.z) < kMinNormalZ * twice_area) continue;
+    keep[t] = true;
+    area[t] = twice_area / 2;
+    for (int k = 0; k < 3; ++k) {
+      const float* p = &mesh.positions[3 * size_t{mesh.indices[3 * t + k]}];
+      const float* q = &mesh.positions[3 * size_t{mesh.indices[3 * t + (k + 1) % 3]}];
+      Position u{p[0], p[1], p[2]}, v{q[0], q[1], q[2]};
+      if (v < u) std::swap(u, v);
+      const auto [it, inserted] = first_with_edge.try_emplace({u, v}, static_cast<uint32_t>(t));
+      if (!inserted) parent[find(static_cast<uint32_t>(t))] = find(it->second);
+    }
+  }
+  std::vector<double> surface_area(n, 0);
+  for (size_t t = 0; t < n; ++t) {
+    if (keep[t]) surface_area[find(static_cast<uint32_t>(t))] += area[t];
+  }
+  for (size_t t = 0; t < n; ++t) {
+    if (keep[t]) keep[t] = surface_area[find(static_cast<uint32_t>(t))] >= kMinArea;
+  }
+  return keep;
 }
 
 }  // namespace
@@ -181,9 +231,10 @@ Status RoomShell::Finish(const std::shared_ptr<Device>& device, const LayoutPara
       }
     }
   };
+  const std::vector<bool> lattice_surface = LatticeSurfaces(mesh_);
   for (size_t t = 0; t < mesh_.TriangleCount(); ++t) {
     const Structure s = mesh_.triangle_structure[t];
-    if (s != Structure::kFloor && s != Structure::kCeiling) continue;
+    if (!lattice_surface[t]) continue;
     const Vec3 a = Vertex(mesh_, mesh_.indices[3 * t]), b = Vertex(mesh_, mesh_.indices[3 * t + 1]),
                c = Vertex(mesh_, mesh_.indices[3 * t + 2]);
     const double max_z = std::max({a.z, b.z, c.z}), mid_z = (std::min({a.z, b.z, c.z}) + max_z) / 2;
