@@ -62,8 +62,8 @@ TEST(RoomShell, ShelvesRaiseTheFloorButSliversAndSlopesDoNot) {
 }
 
 TEST(RoomShell, SmallPiecesJoinedByEdgesCountTogether) {
-  // Twenty 0.05 x 1 m strips at 2 m, side by side with separate vertices at shared
-  // positions: each is 0.05 m^2, under the 0.1 m^2 limit, but together they are 1 m^2.
+  // Twenty 0.05 x 1 m strips at 2 m, each sharing an edge with the next: each is
+  // 0.05 m^2, under the 0.1 m^2 limit, but together they are 1 m^2.
   gltf::Asset room;
   room.nodes.push_back(Panel("floor", -6, 6, -6, 6, 0, 0, true));
   room.nodes.push_back(Panel("ceiling", -6, 6, -6, 6, 6, 0, false));
