@@ -6,8 +6,10 @@
 #include <CLI/CLI.hpp>
 
 #include <functional>
+#include <string>
 
 #include "solid/formats/status.h"
+#include "solid/render/params.h"
 
 namespace solid::cli {
 
@@ -18,6 +20,17 @@ Command AddValidate(CLI::App& app);
 Command AddIndex(CLI::App& app);
 Command AddConvert(CLI::App& app);
 Command AddSample(CLI::App& app);
+Command AddRender(CLI::App& app);
+
+// Where layout params come from, for every command that samples layouts.
+struct ParamsFlags {
+  std::string params, preset, resolution;
+};
+// Registers --params, --preset (mutually exclusive) and --resolution on `cmd`.
+void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags);
+// The params file or preset, with --resolution applied; kInvalidArgument when neither
+// is given or the resolution is malformed.
+Result<render::LayoutParams> ResolveParams(const ParamsFlags& flags);
 
 // Prints "solid: <message>" on stderr and returns the exit code for the status.
 int Fail(const Status& status);

@@ -1,9 +1,38 @@
 #include <fmt/format.h>
 
+#include <cstdio>
+
 #include "commands.h"
 #include "exit_codes.h"
 
 namespace solid::cli {
+
+void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags) {
+  auto* params = cmd->add_option("--params", flags->params, "Params file (JSON; see schemas/params.schema.json)");
+  auto* preset = cmd->add_option("--preset", flags->preset,
+                                 "A Table-1 preset: random-placement, occlusion, scale-distribution, rotation, "
+                                 "scenenet-background, more-objects");
+  params->excludes(preset);
+  preset->excludes(params);
+  cmd->add_option("--resolution", flags->resolution,
+                  "WIDTHxHEIGHT, overrides the params' (the presets say 320x240, Table 1's resolution)");
+}
+
+Result<render::LayoutParams> ResolveParams(const ParamsFlags& f) {
+  if (f.params.empty() && f.preset.empty()) return InvalidArgumentError("give --params FILE or --preset NAME");
+  Result<render::LayoutParams> params =
+      !f.params.empty() ? render::LoadParamsFile(f.params) : render::LoadPreset(f.preset);
+  if (!params.ok() || f.resolution.empty()) return params;
+  int w = 0, h = 0;
+  char x = 0, rest = 0;
+  if (std::sscanf(f.resolution.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < 16 || h < 16 ||
+      w > 8192 || h > 8192) {
+    return InvalidArgumentError(fmt::format("--resolution {}: expected WIDTHxHEIGHT, each 16..8192", f.resolution));
+  }
+  params->width = w;
+  params->height = h;
+  return params;
+}
 
 int Fail(const Status& status) {
   fmt::print(stderr, "solid: {}\n", status.message());

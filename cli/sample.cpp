@@ -15,28 +15,13 @@ namespace solid::cli {
 namespace {
 
 struct SampleFlags {
-  std::string params, preset, assets, rooms, resolution, export_path;
+  ParamsFlags params;
+  std::string assets, rooms, export_path;
   int64_t layouts = 100, first = 0, export_index = -1;
   uint64_t seed = 1;
   int jobs = 0;
   bool json = false;
 };
-
-// "--params" or "--preset", then "--resolution"; shared with the commands that render.
-Result<render::LayoutParams> ResolveParams(const SampleFlags& f) {
-  Result<render::LayoutParams> params =
-      !f.params.empty() ? render::LoadParamsFile(f.params) : render::LoadPreset(f.preset);
-  if (!params.ok() || f.resolution.empty()) return params;
-  int w = 0, h = 0;
-  char x = 0, rest = 0;
-  if (std::sscanf(f.resolution.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < 16 || h < 16 ||
-      w > 8192 || h > 8192) {
-    return InvalidArgumentError(fmt::format("--resolution {}: expected WIDTHxHEIGHT, each 16..8192", f.resolution));
-  }
-  params->width = w;
-  params->height = h;
-  return params;
-}
 
 void PrintReport(const render::SampleReport& r, const render::LayoutParams& p) {
   const ProxyMetrics& m = r.metrics;
@@ -71,7 +56,7 @@ void PrintReport(const render::SampleReport& r, const render::LayoutParams& p) {
 }
 
 int Run(const SampleFlags& f) {
-  SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, ResolveParams(f));
+  SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, ResolveParams(f.params));
   SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
                               render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
   SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
@@ -117,26 +102,20 @@ Command AddSample(CLI::App& app) {
       "Sample layouts, run the mask pass and print the proxy metrics (objects per image, occlusion, "
       "small/medium/large shares, viewpoints) with 95% confidence intervals; or export one layout as glTF.");
   auto f = std::make_shared<SampleFlags>();
-  auto* params = cmd->add_option("--params", f->params, "Params file (JSON; see schemas/params.schema.json)");
-  auto* preset = cmd->add_option("--preset", f->preset,
-                                 "A Table-1 preset: random-placement, occlusion, scale-distribution, rotation, "
-                                 "scenenet-background, more-objects");
-  params->excludes(preset);
-  preset->excludes(params);
+  AddParamsFlags(cmd, &f->params);
   cmd->add_option("--assets", f->assets, "Assets directory with the models (from `solid convert`)")->required();
   cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
   cmd->add_option("--layouts,-n", f->layouts, "Number of layouts")->capture_default_str()->check(CLI::Range(1, 100000000));
   cmd->add_option("--first", f->first, "Index of the first layout")->capture_default_str();
   cmd->add_option("--seed", f->seed, "Dataset seed: layout i depends only on (params, assets, seed, i)")
       ->capture_default_str();
-  cmd->add_option("--resolution", f->resolution, "WIDTHxHEIGHT, overrides the params' (e.g. 320x240)");
   cmd->add_option("--jobs,-j", f->jobs, "Layouts in parallel (default: all cores)");
   cmd->add_flag("--json", f->json, "Print the report as JSON (with the resolved params)");
   cmd->add_option("--export-scene", f->export_index, "Write layout I as a glTF scene to --out instead of sampling")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out,-o", f->export_path, "Output .glb for --export-scene");
   return [f, cmd]() -> int {
-    if (f->params.empty() && f->preset.empty()) {
+    if (f->params.params.empty() && f->params.preset.empty()) {
       fmt::print(stderr, "solid sample: give --params FILE or --preset NAME\n{}", cmd->help());
       return kExitUsage;
     }

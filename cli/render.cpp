@@ -1,0 +1,151 @@
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <iostream>
+
+#include "commands.h"
+#include "exit_codes.h"
+#include "progress.h"
+#include "solid/render/render_dataset.h"
+
+namespace solid::cli {
+namespace {
+
+struct RenderFlags {
+  ParamsFlags params;
+  std::string assets, rooms, out, shards, format = "png";
+  int64_t images = 1000, shard_size = 256, shard = -1;
+  uint64_t seed = 1;
+  int jobs = 0, quality = 90, samples_per_pixel = 4, query_size = 224;
+  bool depth = false, no_queries = false, repair = false, json = false;
+};
+
+// --shard K, --shards A-B, or the index a scheduler gives each task of an array job.
+Result<std::optional<std::pair<int64_t, int64_t>>> ShardRange(const RenderFlags& f, std::string* source) {
+  if (f.shard >= 0) {
+    *source = "--shard";
+    return std::optional(std::pair{f.shard, f.shard});
+  }
+  if (!f.shards.empty()) {
+    long long a = -1, b = -1;
+    char dash = 0, rest = 0;
+    if (std::sscanf(f.shards.c_str(), "%lld%c%lld%c", &a, &dash, &b, &rest) != 3 || dash != '-' || a < 0 || b < a) {
+      return InvalidArgumentError(fmt::format("--shards {}: expected FIRST-LAST, e.g. 0-15", f.shards));
+    }
+    *source = "--shards";
+    return std::optional(std::pair<int64_t, int64_t>{a, b});
+  }
+  for (const char* variable : {"SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"}) {
+    const char* value = std::getenv(variable);
+    if (value == nullptr || *value == '\0') continue;
+    char* end = nullptr;
+    const long long k = std::strtoll(value, &end, 10);
+    if (*end != '\0' || k < 0) return InvalidArgumentError(fmt::format("{}={}: not a shard index", variable, value));
+    *source = variable;
+    return std::optional(std::pair<int64_t, int64_t>{k, k});
+  }
+  return std::optional<std::pair<int64_t, int64_t>>();
+}
+
+void PrintReport(const render::RenderReport& r, const render::LayoutParams& p) {
+  fmt::print("shards             {} requested: {} rendered ({} repaired), {} already present\n", r.shards_requested,
+             r.shards_rendered, r.shards_repaired, r.shards_present);
+  fmt::print("images             {} at {}x{}, {} instances", r.images, p.width, p.height, r.instances);
+  if (r.failed_images > 0) fmt::print(", {} left out (no usable layout)", r.failed_images);
+  fmt::print("\n");
+  for (const std::string& f : r.failures) fmt::print("  left out: {}\n", f);
+  fmt::print("query shards       {} rendered ({} views), {} already present\n", r.query_shards_rendered,
+             r.query_views, r.query_shards_present);
+  const render::StageTimes& s = r.stages;
+  const double per_image = r.images > 0 ? 1.0 / r.images : 0.0;
+  fmt::print("time per image     layout {:.1f} ms, mask pass {:.1f} ms, shading {:.1f} ms, encoding {:.1f} ms, "
+             "writing {:.1f} ms (one thread each)\n",
+             s.layout * per_image, s.mask_pass * per_image, s.shading * per_image, s.encoding * per_image,
+             s.writing * per_image);
+  fmt::print("query views        {:.1f} s over all threads\n", s.query_views / 1000);
+  fmt::print("total              {:.1f} s, {:.2f} images/s, peak memory {:.0f} MiB{}\n", r.seconds,
+             r.seconds > 0 ? r.images / r.seconds : 0.0, r.peak_rss_bytes / 1048576.0,
+             r.index_built ? "; index.sqlite rebuilt" : "");
+}
+
+int Run(const RenderFlags& f) {
+  SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, ResolveParams(f.params));
+  std::string shard_source;
+  SOLID_ASSIGN_OR_RETURN_EXIT(auto shards, ShardRange(f, &shard_source));
+  SOLID_ASSIGN_OR_RETURN_EXIT(ImageFormat format, ParseImageFormat(f.format));
+  SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
+                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
+  SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
+                              render::LayoutSampler::Create(params, library));
+  render::RenderOptions options;
+  options.out = f.out;
+  options.seed = f.seed;
+  options.images = f.images;
+  options.shard_size = f.shard_size;
+  options.shards = shards;
+  options.jobs = f.jobs;
+  options.format = format;
+  options.quality = f.quality;
+  options.depth = f.depth;
+  options.shading.samples_per_pixel = f.samples_per_pixel;
+  options.query_views.long_side = f.query_size;
+  options.queries = !f.no_queries;
+  options.repair = f.repair;
+  if (shards && !f.json) {
+    fmt::print(stderr, "solid: shards {}-{} (from {})\n", shards->first, shards->second, shard_source);
+  }
+  Result<render::RenderReport> report = [&] {
+    ProgressLine progress("render", "images");
+    options.progress = progress.Callback();
+    return render::RenderDataset(*sampler, options);
+  }();
+  if (!report.ok()) return Fail(report.status());
+  if (f.json) {
+    std::cout << report->ToJson().dump(2) << "\n";
+  } else {
+    PrintReport(*report, params);
+  }
+  return report->failed_images > 0 ? kExitProblems : kExitOk;
+}
+
+}  // namespace
+
+Command AddRender(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "render",
+      "Render target images with visible and full masks, boxes and depth, and query views of every model they "
+      "use, into a sharded dataset; reruns render only what is missing.");
+  auto f = std::make_shared<RenderFlags>();
+  AddParamsFlags(cmd, &f->params);
+  cmd->add_option("--assets", f->assets, "Assets directory with the models (from `solid convert`)")->required();
+  cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  cmd->add_option("--out,-o", f->out, "Dataset directory (created, or resumed when its manifest agrees)")->required();
+  cmd->add_option("--images,-n", f->images, "Images in the dataset")->capture_default_str()->check(CLI::Range(
+      int64_t{1}, int64_t{1} << 40));
+  cmd->add_option("--shard-size", f->shard_size, "Images per shard")->capture_default_str()->check(
+      CLI::Range(int64_t{1}, int64_t{1} << 20));
+  auto* shard = cmd->add_option("--shard", f->shard,
+                                "Render this shard only (default: $SLURM_ARRAY_TASK_ID or $JOB_COMPLETION_INDEX when "
+                                "set, else every shard)")
+                    ->check(CLI::NonNegativeNumber);
+  auto* range = cmd->add_option("--shards", f->shards, "Render shards FIRST-LAST only");
+  shard->excludes(range);
+  range->excludes(shard);
+  cmd->add_option("--seed", f->seed, "Dataset seed: image i depends only on (params, assets, seed, i)")
+      ->capture_default_str();
+  cmd->add_option("--jobs,-j", f->jobs, "Images in parallel (default: all cores)");
+  cmd->add_option("--format", f->format, "Image format: png, jpeg or webp")->capture_default_str();
+  cmd->add_option("--quality", f->quality, "JPEG/WebP quality")->capture_default_str()->check(CLI::Range(1, 100));
+  cmd->add_flag("--depth", f->depth, "Store depth as OpenEXR (half float, ZIP)");
+  cmd->add_option("--spp", f->samples_per_pixel, "Samples per pixel (stratified)")->capture_default_str()->check(
+      CLI::Range(1, 1024));
+  cmd->add_option("--query-size", f->query_size, "Long side of query views, pixels")->capture_default_str()->check(
+      CLI::Range(16, 4096));
+  cmd->add_flag("--no-queries", f->no_queries, "Do not render query views");
+  cmd->add_flag("--repair", f->repair,
+                "Validate present shards and re-render those that are damaged (others are trusted and kept)");
+  cmd->add_flag("--json", f->json, "Print the report as JSON");
+  return [f]() -> int { return Run(*f); };
+}
+
+}  // namespace solid::cli

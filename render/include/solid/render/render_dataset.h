@@ -1,0 +1,83 @@
+// `solid render`: target images with their masks, and query views of every model they
+// use, into a sharded dataset (formats/dataset.h) that is deterministic, resumable and
+// farmable.
+//
+// Image i is generated from (params, seed, i) alone: its layout and mask pass
+// (GenerateLayout), its shading, its encoding. Shard K holds images
+// [K * shard_size, (K + 1) * shard_size); a shard is published whole or not at all, so a
+// rerun renders the shards that are missing and a farm runs one process per shard.
+//
+// Query views: query shard Q holds the views of the catalog's models
+// [Q * query_shard_models, (Q + 1) * query_shard_models), every one of them, so that its
+// content depends on the catalog alone and any process that needs one of its models can
+// write it: concurrent writers produce the same bytes, and the first to publish wins.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "solid/formats/dataset.h"
+#include "solid/formats/progress.h"
+#include "solid/render/layout.h"
+#include "solid/render/query_views.h"
+#include "solid/render/shade.h"
+
+namespace solid::render {
+
+struct RenderOptions {
+  std::filesystem::path out;
+  uint64_t seed = 1;
+  int64_t images = 1000;
+  int64_t shard_size = 256;
+  // Inclusive range of target shards to render; empty: every shard of the dataset.
+  std::optional<std::pair<int64_t, int64_t>> shards;
+  int jobs = 0;  // images in parallel; 0: all cores
+  ImageFormat format = ImageFormat::kPng;
+  int quality = 90;    // jpeg and webp
+  bool depth = false;  // store depth as OpenEXR (half float, ZIP)
+  ShadeOptions shading;
+  QueryViewOptions query_views;
+  int64_t query_shard_models = 64;
+  bool queries = true;  // render the query shards the rendered targets need
+  // Re-render target and query shards that fail ValidateShardFile; otherwise a present
+  // shard is trusted and skipped.
+  bool repair = false;
+  ProgressCallback progress;  // in images
+};
+
+// Wall time spent in each stage, summed over worker threads, milliseconds.
+struct StageTimes {
+  double layout = 0, mask_pass = 0, shading = 0, encoding = 0, writing = 0, query_views = 0;
+  nlohmann::json ToJson() const;
+};
+
+struct RenderReport {
+  int64_t shards_requested = 0, shards_rendered = 0, shards_present = 0, shards_repaired = 0;
+  int64_t images = 0, instances = 0;
+  // Images whose every restart was unusable (GenerateLayout): absent from their shard.
+  int64_t failed_images = 0;
+  std::vector<std::string> failures;  // the first few reasons
+  int64_t query_shards_rendered = 0, query_shards_present = 0, query_views = 0;
+  bool index_built = false;  // every target shard is present, and the index was rebuilt
+  StageTimes stages;
+  double seconds = 0;
+  int64_t peak_rss_bytes = 0;
+  nlohmann::json ToJson() const;
+};
+
+// The manifest a render with these params and options writes (and that an existing
+// dataset must equal).
+Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& options);
+
+// Creates the dataset or checks that the one in options.out was made with the same
+// manifest (kAlreadyExists naming the difference otherwise), renders the requested
+// target shards that are missing (or damaged, with repair), the query shards they need,
+// and the index when every target shard is present.
+Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options);
+
+}  // namespace solid::render

@@ -1,0 +1,468 @@
+#include "solid/render/render_dataset.h"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <set>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "solid/formats/image_codec.h"
+#include "solid/formats/index.h"
+#include "solid/formats/shard.h"
+#include "solid/formats/validate.h"
+#include "solid/render/params.h"
+#include "solid/render/sample.h"
+
+namespace solid::render {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+int64_t PeakRssBytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<int64_t>(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
+}
+
+int Jobs(int requested) {
+  return requested > 0 ? requested : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+// Everything one image contributes to its shard, or why it has none.
+struct RenderedImage {
+  Status error;         // a hard error: the render stops
+  std::string failure;  // an unusable layout: the image is left out
+  ImageRecord image;
+  std::vector<InstanceRecord> instances;
+  StageTimes stages;
+};
+
+RenderedImage RenderImage(const LayoutSampler& sampler, const RenderOptions& options, TextureCache& textures,
+                          int64_t image_id) {
+  RenderedImage out;
+  Result<GeneratedLayout> generated = GenerateLayout(sampler, options.seed, image_id);
+  if (!generated.ok()) {
+    if (generated.status().code() == StatusCode::kLimitExceeded) {
+      out.failure = generated.status().message();
+    } else {
+      out.error = generated.status();
+    }
+    return out;
+  }
+  out.stages.layout = generated->sample_ms;
+  out.stages.mask_pass = generated->mask_ms;
+  const Layout& layout = generated->layout;
+
+  auto start = Clock::now();
+  Result<LightRig> lights = SampleLights(layout);
+  if (!lights.ok()) {
+    // No light position in the room (kLimitExceeded): as an unusable layout.
+    if (lights.status().code() == StatusCode::kLimitExceeded) {
+      out.failure = fmt::format("image {}: {}", image_id, lights.status().message());
+    } else {
+      out.error = lights.status().WithContext(fmt::format("image {}", image_id));
+    }
+    return out;
+  }
+  ShadeOptions shading = options.shading;
+  shading.threads = 1;  // images run in parallel instead
+  Result<ShadeResult> shaded = Shade(layout, *lights, shading, textures);
+  out.stages.shading = MillisecondsSince(start);
+  if (!shaded.ok()) {
+    out.error = shaded.status().WithContext(fmt::format("image {}", image_id));
+    return out;
+  }
+
+  start = Clock::now();
+  ImageRecord& record = out.image;
+  record.image_id = image_id;
+  record.seed = layout.seed;
+  record.width = static_cast<uint32_t>(layout.width);
+  record.height = static_cast<uint32_t>(layout.height);
+  record.format = options.format;
+  record.camera = layout.camera;
+  record.room_key = layout.room->key();
+  Result<std::vector<uint8_t>> encoded = EncodeImage(shaded->image, options.format, options.quality);
+  if (!encoded.ok()) {
+    out.error = encoded.status().WithContext(fmt::format("image {}", image_id));
+    return out;
+  }
+  record.image = std::move(encoded).value();
+  if (options.depth) {
+    DepthImage depth{record.width, record.height, std::move(generated->masks.depth)};
+    Result<std::vector<uint8_t>> exr = EncodeDepthExr(depth);
+    if (!exr.ok()) {
+      out.error = exr.status().WithContext(fmt::format("image {} depth", image_id));
+      return out;
+    }
+    record.depth_exr = std::move(exr).value();
+  }
+  out.stages.encoding = MillisecondsSince(start);
+  out.instances = std::move(generated->masks.instances);
+  return out;
+}
+
+void AddStages(StageTimes* total, const StageTimes& s) {
+  total->layout += s.layout;
+  total->mask_pass += s.mask_pass;
+  total->shading += s.shading;
+  total->encoding += s.encoding;
+  total->writing += s.writing;
+  total->query_views += s.query_views;
+}
+
+class Renderer {
+ public:
+  Renderer(const LayoutSampler& sampler, const RenderOptions& options, const Manifest& manifest)
+      : sampler_(sampler), options_(options), manifest_(manifest), paths_(options.out) {}
+
+  // Images [first, end) of shard `shard` into its file; workers render ahead of the
+  // writer by at most a window of images, so memory does not grow with the shard.
+  Status RenderShard(int64_t shard, bool replace, std::set<std::string>* models) {
+    const int64_t first = shard * manifest_.shard_size;
+    const int64_t end = std::min(first + manifest_.shard_size, manifest_.images);
+    ShardWriteOptions write_options;
+    write_options.replace_existing = replace;
+    SOLID_ASSIGN_OR_RETURN(ShardWriter writer, ShardWriter::Create(paths_.shard(shard), write_options));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("generator_version", manifest_.generator_version));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("params_hash", fmt::format("{:016x}", manifest_.ParamsHash())));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("seed", std::to_string(manifest_.seed)));
+
+    const int jobs = static_cast<int>(std::min<int64_t>(Jobs(options_.jobs), std::max<int64_t>(1, end - first)));
+    const int64_t window = 2 * static_cast<int64_t>(jobs);
+    std::vector<RenderedImage> slots(static_cast<size_t>(window));
+    std::vector<bool> ready(static_cast<size_t>(window), false);
+    std::mutex mutex;
+    std::condition_variable changed;
+    int64_t next = first, written = first;
+    bool stop = false;
+    auto worker = [&] {
+      for (;;) {
+        int64_t id;
+        {
+          std::unique_lock lock(mutex);
+          changed.wait(lock, [&] { return stop || next >= end || next < written + window; });
+          if (stop || next >= end) return;
+          id = next++;
+        }
+        RenderedImage image = RenderImage(sampler_, options_, textures_, id);
+        std::lock_guard lock(mutex);
+        slots[static_cast<size_t>(id % window)] = std::move(image);
+        ready[static_cast<size_t>(id % window)] = true;
+        changed.notify_all();
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < jobs; ++t) pool.emplace_back(worker);
+
+    Status status;
+    std::vector<std::string> failures;
+    StageTimes stages;
+    for (; written < end && status.ok(); ++written) {
+      RenderedImage image;
+      {
+        std::unique_lock lock(mutex);
+        changed.wait(lock, [&] { return ready[static_cast<size_t>(written % window)]; });
+        image = std::move(slots[static_cast<size_t>(written % window)]);
+        ready[static_cast<size_t>(written % window)] = false;
+      }
+      changed.notify_all();
+      if (!image.error.ok()) {
+        status = image.error;
+        break;
+      }
+      AddStages(&stages, image.stages);
+      if (!image.failure.empty()) {
+        failures.push_back(fmt::format("{}", image.failure));
+        Progress();
+        continue;
+      }
+      const auto start = Clock::now();
+      status = writer.AddImage(image.image);
+      for (const InstanceRecord& instance : image.instances) {
+        if (!status.ok()) break;
+        status = writer.AddInstance(instance);
+        models->insert(instance.model_key);
+      }
+      stages.writing += MillisecondsSince(start);
+      ++report_.images;
+      report_.instances += static_cast<int64_t>(image.instances.size());
+      Progress();
+    }
+    {
+      std::lock_guard lock(mutex);
+      stop = true;
+    }
+    changed.notify_all();
+    for (std::thread& t : pool) t.join();
+    SOLID_RETURN_IF_ERROR(status.WithContext(paths_.shard(shard).string()));
+
+    report_.failed_images += static_cast<int64_t>(failures.size());
+    for (const std::string& f : failures) {
+      if (report_.failures.size() < 5) report_.failures.push_back(f);
+    }
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("failed_images", nlohmann::json(failures).dump()));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("stage_ms", stages.ToJson().dump()));
+    const auto start = Clock::now();
+    SOLID_RETURN_IF_ERROR(writer.Commit());
+    stages.writing += MillisecondsSince(start);
+    AddStages(&report_.stages, stages);
+    return Status::Ok();
+  }
+
+  // Every model of catalog range Q, in catalog order, rendered in parallel.
+  Status RenderQueryShard(int64_t q, bool replace) {
+    const auto& models = sampler_.library()->models();
+    const size_t first = static_cast<size_t>(q * options_.query_shard_models);
+    const size_t end = std::min(models.size(), first + static_cast<size_t>(options_.query_shard_models));
+    struct ModelViews {
+      QueryModelRecord model;
+      std::vector<QueryViewRecord> views;
+      Status error;
+    };
+    std::vector<ModelViews> rendered(end - first);
+    std::atomic<size_t> next{first};
+    auto worker = [&] {
+      for (size_t i = next++; i < end; i = next++) {
+        ModelViews& out = rendered[i - first];
+        out.model.model_key = models[i].key;
+        Result<std::shared_ptr<const LoadedAsset>> asset = sampler_.library()->Model(i);
+        if (!asset.ok()) {
+          out.model.failure = asset.status().ToString();
+          continue;
+        }
+        Result<std::vector<QueryView>> views = RenderQueryViews(**asset, options_.query_views);
+        if (!views.ok()) {
+          out.model.failure = views.status().ToString();
+          continue;
+        }
+        for (size_t v = 0; v < views->size(); ++v) {
+          QueryView& view = (*views)[v];
+          QueryViewRecord record;
+          record.model_key = models[i].key;
+          record.view_index = static_cast<int32_t>(v);
+          record.azimuth = view.azimuth;
+          record.elevation = view.elevation;
+          record.width = view.image.width;
+          record.height = view.image.height;
+          record.format = options_.format;
+          record.box = view.box;
+          Result<std::vector<uint8_t>> encoded = EncodeImage(view.image, options_.format, options_.quality);
+          if (!encoded.ok()) {
+            out.error = encoded.status().WithContext(fmt::format("{} view {}", models[i].key, v));
+            break;
+          }
+          record.image = std::move(encoded).value();
+          out.views.push_back(std::move(record));
+        }
+        out.model.view_count = static_cast<int32_t>(out.views.size());
+      }
+    };
+    const auto start = Clock::now();
+    std::vector<std::thread> pool;
+    const int jobs = static_cast<int>(std::min<size_t>(Jobs(options_.jobs), std::max<size_t>(1, end - first)));
+    for (int t = 0; t < jobs; ++t) pool.emplace_back(worker);
+    for (std::thread& t : pool) t.join();
+    report_.stages.query_views += MillisecondsSince(start);
+
+    ShardWriteOptions write_options;
+    write_options.replace_existing = replace;
+    const fs::path path = paths_.query_shard(q);
+    SOLID_ASSIGN_OR_RETURN(QueryShardWriter writer, QueryShardWriter::Create(path, write_options));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("generator_version", manifest_.generator_version));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("params_hash", fmt::format("{:016x}", manifest_.ParamsHash())));
+    for (ModelViews& m : rendered) {
+      SOLID_RETURN_IF_ERROR(m.error.WithContext(path.string()));
+      SOLID_RETURN_IF_ERROR(writer.AddModel(m.model));
+      for (const QueryViewRecord& v : m.views) SOLID_RETURN_IF_ERROR(writer.AddView(v));
+      report_.query_views += static_cast<int64_t>(m.views.size());
+    }
+    return writer.Commit();
+  }
+
+  void SetProgressTotal(int64_t total) { progress_total_ = total; }
+  RenderReport& report() { return report_; }
+
+ private:
+  void Progress() {
+    ++progress_done_;
+    if (options_.progress) options_.progress(progress_done_, progress_total_);
+  }
+
+  const LayoutSampler& sampler_;
+  const RenderOptions& options_;
+  const Manifest& manifest_;
+  DatasetPaths paths_;
+  RenderReport report_;
+  TextureCache textures_;
+  int64_t progress_done_ = 0, progress_total_ = 0;
+};
+
+// Present and, under repair, undamaged.
+bool Usable(const fs::path& path, bool repair, bool* damaged) {
+  *damaged = false;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return false;
+  if (!repair) return true;
+  *damaged = !ValidateShardFile(path).ok();
+  return !*damaged;
+}
+
+// Model keys used by the instances of a present target shard.
+Status ModelsOfShard(const fs::path& path, std::set<std::string>* models) {
+  SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
+  return reader.ForEachInstance(
+      [&](const InstanceRecord& instance) {
+        models->insert(instance.model_key);
+        return Status::Ok();
+      },
+      ChecksumPolicy::kSkip);
+}
+
+}  // namespace
+
+nlohmann::json StageTimes::ToJson() const {
+  return {{"layout_ms", layout},     {"mask_pass_ms", mask_pass}, {"shading_ms", shading},
+          {"encoding_ms", encoding}, {"writing_ms", writing},     {"query_views_ms", query_views}};
+}
+
+nlohmann::json RenderReport::ToJson() const {
+  return {{"shards_requested", shards_requested},
+          {"shards_rendered", shards_rendered},
+          {"shards_present", shards_present},
+          {"shards_repaired", shards_repaired},
+          {"images", images},
+          {"instances", instances},
+          {"failed_images", failed_images},
+          {"failures", failures},
+          {"query_shards_rendered", query_shards_rendered},
+          {"query_shards_present", query_shards_present},
+          {"query_views", query_views},
+          {"index_built", index_built},
+          {"stages", stages.ToJson()},
+          {"seconds", seconds},
+          {"peak_rss_bytes", peak_rss_bytes}};
+}
+
+Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& options) {
+  const LayoutParams& p = sampler.params();
+  Manifest m;
+  m.generator_version = SOLID_VERSION;
+  m.seed = options.seed;
+  m.images = options.images;
+  m.shard_size = options.shard_size;
+  m.width = static_cast<uint32_t>(p.width);
+  m.height = static_cast<uint32_t>(p.height);
+  m.image_format = options.format;
+  nlohmann::json render = {{"samples_per_pixel", options.shading.samples_per_pixel},
+                           {"depth", options.depth},
+                           {"query_views", options.query_views.ToJson()},
+                           {"query_shard_models", options.query_shard_models}};
+  if (options.format != ImageFormat::kPng) render["quality"] = options.quality;
+  m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
+  m.catalog_hash = sampler.library()->catalog_hash();
+  return m;
+}
+
+Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options) {
+  const auto start = Clock::now();
+  if (options.images < 0) return InvalidArgumentError("--images must be >= 0");
+  if (options.shard_size < 1) return InvalidArgumentError("--shard-size must be >= 1");
+  if (options.query_shard_models < 1) return InvalidArgumentError("query_shard_models must be >= 1");
+  const Manifest manifest = RenderManifest(sampler, options);
+  const DatasetPaths paths(options.out);
+
+  // Farm processes may race to create the dataset: identical manifests make that harmless.
+  std::error_code ec;
+  if (!fs::exists(paths.manifest(), ec)) SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
+  SOLID_ASSIGN_OR_RETURN(Manifest existing, ReadManifest(options.out));
+  if (const std::string why = ManifestDifference(existing, manifest); !why.empty()) {
+    return AlreadyExistsError(fmt::format("{}: the dataset there was rendered with other settings ({}); render into "
+                                          "a new directory, or repeat the flags it was made with",
+                                          options.out.string(), why));
+  }
+
+  const int64_t shard_count = manifest.ShardCount();
+  int64_t first = 0, last = shard_count - 1;
+  if (options.shards) {
+    std::tie(first, last) = *options.shards;
+    if (first < 0 || last < first || last >= shard_count) {
+      return InvalidArgumentError(fmt::format("--shard(s) {}-{}: the dataset has shards 0-{} ({} images of {})", first,
+                                              last, shard_count - 1, manifest.images, manifest.shard_size));
+    }
+  }
+
+  Renderer renderer(sampler, options, manifest);
+  RenderReport& report = renderer.report();
+  report.shards_requested = shard_count == 0 ? 0 : last - first + 1;
+  std::vector<std::pair<int64_t, bool>> todo;  // (shard, replace)
+  std::set<std::string> models;
+  int64_t todo_images = 0;
+  for (int64_t k = first; k <= last && shard_count > 0; ++k) {
+    bool damaged = false;
+    if (Usable(paths.shard(k), options.repair, &damaged)) {
+      ++report.shards_present;
+      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
+      continue;
+    }
+    todo.emplace_back(k, damaged);
+    todo_images += std::min(manifest.shard_size, manifest.images - k * manifest.shard_size);
+  }
+  renderer.SetProgressTotal(todo_images);
+  for (const auto& [k, damaged] : todo) {
+    SOLID_RETURN_IF_ERROR(renderer.RenderShard(k, damaged, &models));
+    ++report.shards_rendered;
+    if (damaged) ++report.shards_repaired;
+  }
+
+  if (options.queries) {
+    const auto& catalog = sampler.library()->models();
+    std::set<int64_t> query_shards;
+    for (const std::string& key : models) {
+      const auto it = std::lower_bound(catalog.begin(), catalog.end(), key,
+                                       [](const AssetEntry& e, const std::string& k) { return e.key < k; });
+      if (it == catalog.end() || it->key != key) {
+        return CorruptError(fmt::format("{}: model {} is in the shards but not in the asset catalog", options.out.string(),
+                                        key));
+      }
+      query_shards.insert(static_cast<int64_t>(it - catalog.begin()) / options.query_shard_models);
+    }
+    for (int64_t q : query_shards) {
+      bool damaged = false;
+      if (Usable(paths.query_shard(q), options.repair, &damaged)) {
+        ++report.query_shards_present;
+        continue;
+      }
+      const Status written = renderer.RenderQueryShard(q, damaged);
+      if (written.code() == StatusCode::kAlreadyExists) {
+        ++report.query_shards_present;  // another process of the farm published the same bytes first
+        continue;
+      }
+      SOLID_RETURN_IF_ERROR(written);
+      ++report.query_shards_rendered;
+    }
+  }
+
+  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(options.out));
+  if (static_cast<int64_t>(listing.targets.size()) == shard_count) {
+    SOLID_ASSIGN_OR_RETURN(IndexReport index, BuildIndex(options.out));
+    report.index_built = true;
+  }
+  report.seconds = MillisecondsSince(start) / 1000;
+  report.peak_rss_bytes = PeakRssBytes();
+  return report;
+}
+
+}  // namespace solid::render

@@ -1,0 +1,180 @@
+// `solid render` as a library: datasets that validate, agree with `solid sample`, and are
+// the same data whatever the shard size, thread count, interruptions or repairs.
+#include "solid/render/render_dataset.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "formats/test_util.h"
+#include "render/dataset_digest.h"
+#include "render/test_assets.h"
+#include "solid/formats/dataset.h"
+#include "solid/formats/files.h"
+#include "solid/formats/index.h"
+#include "solid/formats/metrics.h"
+#include "solid/formats/validate.h"
+#include "solid/render/sample.h"
+
+namespace solid::render {
+namespace {
+
+namespace fs = std::filesystem;
+using solid::testing::TempDir;
+
+// Small enough for the sanitizer build: 96 x 72, one sample per pixel, 48-pixel queries.
+std::unique_ptr<LayoutSampler> SmallSampler(const char* preset = "random-placement") {
+  LayoutParams params = LoadPreset(preset).value();
+  params.width = 96;
+  params.height = 72;
+  return LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
+}
+
+RenderOptions SmallRender(const fs::path& out, int64_t images, int64_t shard_size, int jobs) {
+  RenderOptions o;
+  o.out = out;
+  o.seed = 3;
+  o.images = images;
+  o.shard_size = shard_size;
+  o.jobs = jobs;
+  o.shading.samples_per_pixel = 1;
+  o.query_views.long_side = 48;
+  o.query_shard_models = 8;
+  return o;
+}
+
+testing::DatasetDigest Digest(const fs::path& root) { return testing::DigestDataset(root).value(); }
+
+TEST(RenderDataset, ValidatesAndAgreesWithSample) {
+  TempDir dir;
+  const auto sampler = SmallSampler();
+  const auto report = RenderDataset(*sampler, SmallRender(dir.path(), 10, 4, 2));
+  ASSERT_OK(report.status());
+  EXPECT_EQ(report->shards_rendered, 3);
+  EXPECT_EQ(report->images + report->failed_images, 10);
+  EXPECT_TRUE(report->index_built);
+  EXPECT_GT(report->query_shards_rendered, 0);
+
+  const ValidationReport validation = ValidateDataset(dir.path());
+  EXPECT_TRUE(validation.ok()) << validation.ToJson().dump(2);
+  EXPECT_EQ(validation.images, report->images);
+
+  // The stored masks give the metrics `solid sample` measures on the same layouts.
+  SampleOptions sample;
+  sample.seed = 3;
+  sample.layouts = 10;
+  sample.jobs = 2;
+  const SampleReport sampled = RunSample(*sampler, sample).value();
+  Dataset dataset = Dataset::Open(dir.path()).value();
+  MetricsAccumulator stored;
+  ASSERT_OK(dataset.ForEachImage([&](const ImageRecord& image, const std::vector<InstanceRecord>& instances) {
+    EXPECT_EQ(image.width, 96u);
+    stored.AddImage(instances);
+    return Status::Ok();
+  }));
+  const ProxyMetrics m = stored.Finish();
+  EXPECT_EQ(m.images, sampled.metrics.images);
+  EXPECT_EQ(m.visible_instances, sampled.metrics.visible_instances);
+  EXPECT_DOUBLE_EQ(m.occlusion.mean, sampled.metrics.occlusion.mean);
+  EXPECT_DOUBLE_EQ(m.small.mean, sampled.metrics.small.mean);
+
+  // Every instanced model has its 8 views, long side 48.
+  ASSERT_OK(dataset.ForEachImage([&](const ImageRecord&, const std::vector<InstanceRecord>& instances) {
+    for (const InstanceRecord& i : instances) {
+      const auto views = dataset.QueryViews(i.model_key).value();
+      EXPECT_EQ(views.size(), 8u) << i.model_key;
+      for (const QueryViewRecord& v : views) EXPECT_EQ(std::max(v.width, v.height), 48u);
+    }
+    return Status::Ok();
+  }));
+}
+
+TEST(RenderDataset, SameDataForAnyShardSizeAndThreadCount) {
+  TempDir dir;
+  const auto sampler = SmallSampler();
+  ASSERT_OK(RenderDataset(*sampler, SmallRender(dir.path() / "a", 9, 4, 1)).status());
+  ASSERT_OK(RenderDataset(*sampler, SmallRender(dir.path() / "b", 9, 3, 2)).status());
+  const auto a = Digest(dir.path() / "a");
+  EXPECT_EQ(a.images.size(), 9u) << "every image has a usable layout here";
+  EXPECT_EQ(a, Digest(dir.path() / "b"));
+}
+
+TEST(RenderDataset, RerunRendersOnlyMissingShardsAndRefusesOtherSettings) {
+  TempDir dir;
+  const auto sampler = SmallSampler();
+  const RenderOptions options = SmallRender(dir.path(), 8, 4, 2);
+  ASSERT_OK(RenderDataset(*sampler, options).status());
+  const auto before = Digest(dir.path());
+
+  const auto again = RenderDataset(*sampler, options);
+  ASSERT_OK(again.status());
+  EXPECT_EQ(again->shards_rendered, 0);
+  EXPECT_EQ(again->shards_present, 2);
+  EXPECT_EQ(again->query_shards_rendered, 0);
+
+  fs::remove(DatasetPaths(dir.path()).shard(1));
+  const auto resumed = RenderDataset(*sampler, options);
+  ASSERT_OK(resumed.status());
+  EXPECT_EQ(resumed->shards_rendered, 1);
+  EXPECT_EQ(Digest(dir.path()), before);
+
+  RenderOptions other = options;
+  other.seed = 4;
+  const auto refused = RenderDataset(*sampler, other);
+  EXPECT_EQ(refused.status().code(), StatusCode::kAlreadyExists);
+  EXPECT_NE(refused.status().message().find("seed"), std::string::npos) << refused.status().message();
+}
+
+TEST(RenderDataset, RepairReRendersOnlyTheDamagedShard) {
+  TempDir dir;
+  const auto sampler = SmallSampler();
+  RenderOptions options = SmallRender(dir.path(), 8, 4, 2);
+  ASSERT_OK(RenderDataset(*sampler, options).status());
+  const auto before = Digest(dir.path());
+  const fs::path damaged = DatasetPaths(dir.path()).shard(0), intact = DatasetPaths(dir.path()).shard(1);
+  const auto intact_bytes = files::ReadFile(intact, 1 << 30).value();
+
+  // Flip bytes in the middle of the file, where the image blobs are.
+  auto bytes = files::ReadFile(damaged, 1 << 30).value();
+  for (size_t at = bytes.size() / 2; at < bytes.size() / 2 + 64; ++at) bytes[at] ^= 0x5a;
+  ASSERT_OK(files::WriteFileAtomically(damaged, bytes));
+  EXPECT_FALSE(ValidateDataset(dir.path()).ok());
+
+  const auto trusted = RenderDataset(*sampler, options);
+  ASSERT_OK(trusted.status());
+  EXPECT_EQ(trusted->shards_rendered, 0) << "without repair a present shard is trusted";
+
+  options.repair = true;
+  const auto repaired = RenderDataset(*sampler, options);
+  ASSERT_OK(repaired.status());
+  EXPECT_EQ(repaired->shards_repaired, 1);
+  EXPECT_TRUE(ValidateDataset(dir.path()).ok());
+  EXPECT_EQ(Digest(dir.path()), before);
+  EXPECT_EQ(files::ReadFile(intact, 1 << 30).value(), intact_bytes);
+
+  // A truncated shard is repaired the same way.
+  std::filesystem::resize_file(damaged, fs::file_size(damaged) / 3);
+  const auto truncated = RenderDataset(*sampler, options);
+  ASSERT_OK(truncated.status());
+  EXPECT_EQ(truncated->shards_repaired, 1);
+  EXPECT_EQ(Digest(dir.path()), before);
+}
+
+TEST(RenderDataset, ShardRangesFillOneDatasetLikeOneRun) {
+  TempDir dir;
+  const auto sampler = SmallSampler();
+  ASSERT_OK(RenderDataset(*sampler, SmallRender(dir.path() / "whole", 9, 3, 2)).status());
+  RenderOptions part = SmallRender(dir.path() / "parts", 9, 3, 1);
+  for (int64_t k : {2, 0, 1}) {
+    part.shards = std::pair{k, k};
+    const auto r = RenderDataset(*sampler, part);
+    ASSERT_OK(r.status());
+    EXPECT_EQ(r->index_built, k == 1) << "the index waits for the last shard";
+  }
+  EXPECT_EQ(Digest(dir.path() / "parts"), Digest(dir.path() / "whole"));
+  part.shards = std::pair{int64_t{3}, int64_t{3}};
+  EXPECT_EQ(RenderDataset(*sampler, part).status().code(), StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace solid::render
