@@ -44,6 +44,8 @@ Result<DecodedTextures> DecodeTextures(const std::vector<gltf::Texture>& texture
 // sRGB transfer functions.
 float SrgbToLinear(uint8_t v);
 uint8_t LinearToSrgb8(float v);
+// Scene-linear radiance to display-linear [0, 1] (a filmic curve).
+float ToneMap(float v);
 
 // The linear base colour of `material` (nullptr: glTF's default, white) at `uv`.
 Vec3f BaseColor(const gltf::Material* material, const DecodedTextures* textures, float u, float v);
@@ -74,7 +76,7 @@ struct ShadingScene {
   std::vector<ShadingLight> lights;
   Vec3f ambient;  // uniform ambient radiance
   Vec3f sky;      // radiance from above, weighted by (1 + n_z) / 2
-  float ambient_occlusion_m = 1.5f;
+  float ambient_occlusion_m = 0.75f;  // range of the ambient obscurance rays
   Vec3f background;  // radiance of rays that leave the scene
 };
 
@@ -90,7 +92,7 @@ struct Film {
 Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near, int spp,
                 int threads, uint64_t seed);
 
-// sRGB 8-bit RGB of a linear film (clamped to [0, 1]).
+// sRGB 8-bit RGB of a linear film, tone mapped by ToneMap.
 Image8 EncodeFilm(const Film& film);
 
 }  // namespace solid::render

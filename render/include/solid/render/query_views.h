@@ -10,7 +10,7 @@
 // background. Shading as shade.h. Each view is cropped tightly to the pixels any
 // sample of the object covers (no margin), then resized (OpenImageIO, its default
 // filter, in linear light) so that its long side is `long_side`.
-// The background is linear grey 0.05: sRGB (63, 63, 63).
+// The background is linear grey 0.05: sRGB (59, 59, 59) after the tone curve.
 //
 // Views whose object covers no pixel are left out (D6: failed views are not stored);
 // `failed` lists their azimuths. Deterministic: the same bytes for any thread count.

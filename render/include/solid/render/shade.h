@@ -10,8 +10,9 @@
 //   the white cube) as an overhead "sky": irradiance pi * L_c * F * (1 + n_z) / 2,
 //   F the view factor of the room's ceiling from the target's height; plus a uniform
 //   ambient of the world's grey 0.05 and one diffuse bounce of the sky off the shell
-//   (mean shell albedo x sky). Both ambient terms are multiplied by an ambient-
-//   occlusion visibility: one cosine-weighted ray per sample, up to 1.5 m. This
+//   (mean shell albedo x sky). Both ambient terms are multiplied by an ambient
+//   obscurance: one cosine-weighted ray per sample, up to 0.75 m, a blocker at t
+//   letting t / 0.75 through (far less noisy than binary occlusion). This
 //   stands in for the reference's emissive ceiling with 3 diffuse bounces at a
 //   fraction of the cost (no path tracing, no denoiser);
 // - materials: glTF base colour factor x base colour texture (sRGB decoded,
@@ -21,7 +22,8 @@
 //   in the ID pass). Surfaces are two-sided.
 // Anti-aliasing: samples_per_pixel stratified, jittered samples over each pixel (a
 // box filter); light-point and ambient directions use their own shuffled strata.
-// Output: the mean radiance, clamped to [0, 1] and encoded sRGB (no Filmic curve).
+// Output: the mean radiance through a filmic tone curve (Narkowicz's ACES fit, so
+// that highlights roll off as under the reference's Filmic view transform), then sRGB.
 //
 // Determinism: lights draw from Rng(MixSeed(layout.seed, layout.restart), lights
 // stream); pixel p draws from Rng(MixSeed(that seed, p), shading stream). The image
