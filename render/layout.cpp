@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "solid/formats/random.h"
+#include "streams.h"
 
 namespace solid::render {
 
@@ -18,8 +19,6 @@ constexpr double kPi = std::numbers::pi;
 // Objects resting on the floor float this far above it: the shell test counts touching
 // as intersecting.
 constexpr double kFloorGap = 1e-3;
-
-enum Stream : uint64_t { kRoomStream = 1, kCameraStream = 2, kObjectStream = 3 };
 
 Mat3 CameraRotation(const Camera& c) {
   const auto& a = c.world_from_camera;

@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "instance_scene.h"
+
 namespace solid::render {
 namespace {
 
@@ -49,22 +51,6 @@ void RecordCrossings(const RTCFilterFunctionNArguments* args) {
   }
 }
 
-RTCRayHit MakeRay(Vec3 origin, Vec3 direction, float tnear) {
-  RTCRayHit r{};
-  r.ray.org_x = static_cast<float>(origin.x);
-  r.ray.org_y = static_cast<float>(origin.y);
-  r.ray.org_z = static_cast<float>(origin.z);
-  r.ray.dir_x = static_cast<float>(direction.x);
-  r.ray.dir_y = static_cast<float>(direction.y);
-  r.ray.dir_z = static_cast<float>(direction.z);
-  r.ray.tnear = tnear;
-  r.ray.tfar = kInfinity;
-  r.ray.mask = UINT32_MAX;
-  r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  return r;
-}
-
 void SetLane(RTCRayHit16* packet, int i, Vec3 origin, Vec3 direction, float tnear) {
   packet->ray.org_x[i] = static_cast<float>(origin.x);
   packet->ray.org_y[i] = static_cast<float>(origin.y);
@@ -81,34 +67,6 @@ void SetLane(RTCRayHit16* packet, int i, Vec3 origin, Vec3 direction, float tnea
   packet->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
   packet->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
 }
-
-// A top-level scene of the layout's objects, instance id = placement index.
-class ObjectScene {
- public:
-  ObjectScene(RTCDevice device, const Layout& layout) : scene_(rtcNewScene(device)) {
-    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
-    for (size_t k = 0; k < layout.objects.size(); ++k) {
-      const PlacedObject& o = layout.objects[k];
-      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
-      rtcSetGeometryInstancedScene(g, reinterpret_cast<RTCScene>(o.asset->scene()));
-      const Affine3x4 a = o.WorldFromObject();
-      float m[12];
-      for (int i = 0; i < 12; ++i) m[i] = static_cast<float>(a[i]);
-      rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, m);
-      rtcCommitGeometry(g);
-      rtcAttachGeometryByID(scene_, g, static_cast<unsigned>(k));
-      rtcReleaseGeometry(g);
-    }
-    rtcCommitScene(scene_);
-  }
-  ~ObjectScene() { rtcReleaseScene(scene_); }
-  ObjectScene(const ObjectScene&) = delete;
-  ObjectScene& operator=(const ObjectScene&) = delete;
-  RTCScene get() const { return scene_; }
-
- private:
-  RTCScene scene_;
-};
 
 // See the header: the share of the object's silhouette outside the image.
 double Truncation(const Layout& layout, const PlacedObject& o) {

@@ -8,13 +8,17 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <numbers>
 #include <set>
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include "solid/formats/checksum.h"
 #include "solid/formats/image_codec.h"
 #include "solid/formats/index.h"
+#include "solid/formats/random.h"
 #include "solid/formats/shard.h"
 #include "solid/formats/validate.h"
 #include "solid/render/params.h"
@@ -243,22 +247,30 @@ class Renderer {
           out.model.failure = asset.status().ToString();
           continue;
         }
-        Result<std::vector<QueryView>> views = RenderQueryViews(**asset, options_.query_views);
+        // The model's own stream: its views are the same whichever images use it.
+        const uint64_t seed = MixSeed(options_.seed, Xxh64(models[i].key));
+        QueryViewOptions view_options = options_.query_views;
+        view_options.threads = 1;  // models run in parallel instead
+        Result<QueryViewsResult> views = RenderQueryViews(*asset, seed, view_options, textures_);
         if (!views.ok()) {
           out.model.failure = views.status().ToString();
           continue;
         }
-        for (size_t v = 0; v < views->size(); ++v) {
-          QueryView& view = (*views)[v];
+        if (!views->failed.empty()) {
+          out.model.failure = fmt::format("the model covers no pixel at azimuth(s) {} deg", fmt::join(views->failed, ", "));
+        }
+        for (size_t v = 0; v < views->views.size(); ++v) {
+          QueryView& view = views->views[v];
           QueryViewRecord record;
           record.model_key = models[i].key;
           record.view_index = static_cast<int32_t>(v);
-          record.azimuth = view.azimuth;
-          record.elevation = view.elevation;
+          record.azimuth = view.azimuth_deg * std::numbers::pi / 180;
+          record.elevation = view.elevation_deg * std::numbers::pi / 180;
           record.width = view.image.width;
           record.height = view.image.height;
           record.format = options_.format;
-          record.box = view.box;
+          // Views are cropped to the object: its box is the whole stored image.
+          record.box = {0, 0, view.image.width, view.image.height};
           Result<std::vector<uint8_t>> encoded = EncodeImage(view.image, options_.format, options_.quality);
           if (!encoded.ok()) {
             out.error = encoded.status().WithContext(fmt::format("{} view {}", models[i].key, v));
@@ -368,7 +380,13 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   m.image_format = options.format;
   nlohmann::json render = {{"samples_per_pixel", options.shading.samples_per_pixel},
                            {"depth", options.depth},
-                           {"query_views", options.query_views.ToJson()},
+                           {"query_views",
+                            {{"views", options.query_views.views},
+                             {"render_size", options.query_views.render_size},
+                             {"long_side", options.query_views.long_side},
+                             {"hfov_deg", options.query_views.hfov_deg},
+                             {"light_power_w", options.query_views.light_power_w},
+                             {"samples_per_pixel", options.query_views.samples_per_pixel}}},
                            {"query_shard_models", options.query_shard_models}};
   if (options.format != ImageFormat::kPng) render["quality"] = options.quality;
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};

@@ -1,0 +1,404 @@
+#include "shading.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <numbers>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "instance_scene.h"
+#include "solid/formats/random.h"
+#include "streams.h"
+
+namespace solid::render {
+
+namespace {
+
+constexpr float kPi = std::numbers::pi_v<float>;
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+// A single sample brighter than this would whiten its pixel alone (a firefly).
+constexpr float kMaxSampleRadiance = 4.0f;
+constexpr float kMaxSpecularExponent = 1024.0f;
+
+const std::array<float, 256>& SrgbTable() {
+  static const std::array<float, 256> table = [] {
+    std::array<float, 256> t{};
+    for (int i = 0; i < 256; ++i) {
+      const double c = i / 255.0;
+      t[i] = static_cast<float>(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4));
+    }
+    return t;
+  }();
+  return table;
+}
+
+Vec3f Normalized(Vec3f v) {
+  const float len2 = Dot(v, v);
+  return len2 > 0 ? v * (1.0f / std::sqrt(len2)) : v;
+}
+
+struct Frame3f {
+  float m[9];
+  Vec3f operator*(Vec3f v) const {
+    return {m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
+            m[6] * v.x + m[7] * v.y + m[8] * v.z};
+  }
+};
+
+// An orthonormal basis around unit n (Duff et al. 2017, branchless).
+void Basis(Vec3f n, Vec3f* t, Vec3f* b) {
+  const float sign = std::copysign(1.0f, n.z);
+  const float a = -1.0f / (sign + n.z);
+  const float c = n.x * n.y * a;
+  *t = {1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x};
+  *b = {c, sign + n.y * n.y * a, -n.y};
+}
+
+// The strata of n samples: the most square nx x ny = n.
+void Strata(int n, int* nx, int* ny) {
+  int x = static_cast<int>(std::sqrt(static_cast<double>(n)));
+  while (n % x != 0) --x;
+  *nx = x;
+  *ny = n / x;
+}
+
+struct Hit {
+  Vec3f position, geometric_normal, shading_normal;
+  float u = 0, v = 0;
+  const gltf::Material* material = nullptr;
+  const DecodedTextures* textures = nullptr;
+};
+
+struct SurfaceFrames {
+  Frame3f rotation;
+  float scale;
+  Vec3f translation;
+};
+
+Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames, const RTCRayHit& rh, Vec3f dir) {
+  const uint32_t instance = rh.hit.instID[0];
+  const ShadingSurface& s = scene.surfaces[instance];
+  const SurfaceFrames& f = frames[instance];
+  const MeshGeometry& m = *s.mesh;
+  const uint32_t prim = rh.hit.primID;
+  const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
+  auto position = [&](uint32_t i) { return Vec3f{m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]}; };
+  auto normal = [&](uint32_t i) { return Vec3f{m.normals[3 * i], m.normals[3 * i + 1], m.normals[3 * i + 2]}; };
+  const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.0f - b1 - b2;
+  const Vec3f p0 = position(i0), p1 = position(i1), p2 = position(i2);
+  Hit h;
+  // From the barycentrics rather than origin + t * dir: the error then does not grow
+  // with the distance to the camera, and shadow rays need a smaller offset.
+  h.position = f.rotation * ((p0 * b0 + p1 * b1 + p2 * b2) * f.scale) + f.translation;
+  h.geometric_normal = Normalized(f.rotation * Cross(p1 - p0, p2 - p0));
+  const Vec3f ns = normal(i0) * b0 + normal(i1) * b1 + normal(i2) * b2;
+  h.shading_normal = Dot(ns, ns) > 1e-12f ? Normalized(f.rotation * ns) : h.geometric_normal;
+  // Two-sided: face the viewer; the shading normal stays on the geometric side.
+  if (Dot(h.geometric_normal, dir) > 0) h.geometric_normal = h.geometric_normal * -1.0f;
+  if (Dot(h.shading_normal, h.geometric_normal) < 0) h.shading_normal = h.shading_normal * -1.0f;
+  h.u = m.uvs[2 * i0] * b0 + m.uvs[2 * i1] * b1 + m.uvs[2 * i2] * b2;
+  h.v = m.uvs[2 * i0 + 1] * b0 + m.uvs[2 * i1 + 1] * b1 + m.uvs[2 * i2 + 1] * b2;
+  const uint32_t material = m.triangle_material[prim];
+  if (material < s.materials->size()) h.material = &(*s.materials)[material];
+  h.textures = s.textures;
+  return h;
+}
+
+bool Occluded(RTCScene scene, RTCIntersectContext* context, Vec3f origin, Vec3f dir, float tfar) {
+  RTCRay ray{};
+  ray.org_x = origin.x;
+  ray.org_y = origin.y;
+  ray.org_z = origin.z;
+  ray.dir_x = dir.x;
+  ray.dir_y = dir.y;
+  ray.dir_z = dir.z;
+  ray.tnear = 0;
+  ray.tfar = tfar;
+  ray.mask = UINT32_MAX;
+  rtcOccluded1(scene, context, &ray);
+  return ray.tfar < 0;
+}
+
+// One pixel's sampler: stratified primary jitter, and per further 2D dimension a
+// shuffled copy of the same strata, so that light points and ambient directions are
+// stratified over the pixel too without correlating with the jitter.
+class PixelSampler {
+ public:
+  PixelSampler(int nx, int ny, int dimensions) : nx_(nx), ny_(ny), dims_(dimensions) {
+    perm_.resize(static_cast<size_t>(dimensions) * nx * ny);
+  }
+  void Start(Rng* rng) {
+    rng_ = rng;
+    const int n = nx_ * ny_;
+    for (int d = 0; d < dims_; ++d) {
+      uint16_t* p = &perm_[static_cast<size_t>(d) * n];
+      for (int i = 0; i < n; ++i) p[i] = static_cast<uint16_t>(i);
+      // Multiply-shift instead of Rng::Index: its two 64-bit divisions per draw cost
+      // more than the shading here, and the bias (below 2^-22 for n <= 1024) is harmless.
+      for (int i = n - 1; i > 0; --i) {
+        const auto j = static_cast<int>((uint64_t{rng->Next()} * static_cast<uint64_t>(i + 1)) >> 32);
+        std::swap(p[i], p[j]);
+      }
+    }
+  }
+  // Sample s of dimension d (d = -1: the primary jitter), in [0, 1)^2.
+  std::array<float, 2> Get(int s, int d) {
+    const int stratum = d < 0 ? s : perm_[static_cast<size_t>(d) * nx_ * ny_ + s];
+    const double a = (stratum % nx_ + rng_->Uniform()) / nx_;
+    const double b = (stratum / nx_ + rng_->Uniform()) / ny_;
+    return {static_cast<float>(a), static_cast<float>(b)};
+  }
+
+ private:
+  int nx_, ny_, dims_;
+  std::vector<uint16_t> perm_;
+  Rng* rng_ = nullptr;
+};
+
+}  // namespace
+
+float SrgbToLinear(uint8_t v) { return SrgbTable()[v]; }
+
+float ToneMap(float v) {
+  // Narkowicz's fit of the ACES filmic curve: highlights roll off instead of
+  // clipping, as under the reference's Filmic view transform.
+  if (!(v > 0)) return 0;
+  return std::min(1.0f, (v * (2.51f * v + 0.03f)) / (v * (2.43f * v + 0.59f) + 0.14f));
+}
+
+uint8_t LinearToSrgb8(float v) {
+  if (!(v > 0)) return 0;
+  if (v >= 1) return 255;
+  const float c = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+  return static_cast<uint8_t>(std::lround(c * 255.0f));
+}
+
+Result<DecodedTextures> DecodeTextures(const std::vector<gltf::Texture>& textures, std::string_view where) {
+  DecodedTextures out;
+  for (size_t t = 0; t < textures.size(); ++t) {
+    const gltf::Texture& in = textures[t];
+    ImageFormat format;
+    if (in.mime_type == "image/png") {
+      format = ImageFormat::kPng;
+    } else if (in.mime_type == "image/jpeg") {
+      format = ImageFormat::kJpeg;
+    } else {
+      return ParseError(fmt::format("{}: texture {} ({}): unsupported type '{}'", where, t, in.name, in.mime_type));
+    }
+    Result<Image8> decoded = DecodeImage(in.bytes, format);
+    if (!decoded.ok()) return decoded.status().WithContext(fmt::format("{}: texture {} ({})", where, t, in.name));
+    const Image8& img = *decoded;
+    if (img.channels < 1 || img.channels > 4 || img.width == 0 || img.height == 0) {
+      return ParseError(fmt::format("{}: texture {} ({}): {} channels, {}x{}", where, t, in.name, img.channels,
+                                    img.width, img.height));
+    }
+    DecodedTextures::Texture tex;
+    tex.width = static_cast<int>(img.width);
+    tex.height = static_cast<int>(img.height);
+    const size_t texels = static_cast<size_t>(img.width) * img.height;
+    tex.rgb.resize(3 * texels);
+    double sum[3] = {0, 0, 0};
+    for (size_t i = 0; i < texels; ++i) {
+      const uint8_t* p = &img.pixels[i * img.channels];
+      // Grey (+ alpha) images replicate their one colour channel; alpha is dropped.
+      const bool grey = img.channels < 3;
+      for (int c = 0; c < 3; ++c) {
+        const uint8_t v = grey ? p[0] : p[c];
+        tex.rgb[3 * i + c] = v;
+        sum[c] += SrgbToLinear(v);
+      }
+    }
+    tex.mean_linear = {static_cast<float>(sum[0] / texels), static_cast<float>(sum[1] / texels),
+                       static_cast<float>(sum[2] / texels)};
+    out.bytes += tex.rgb.size();
+    out.textures.push_back(std::move(tex));
+  }
+  return out;
+}
+
+namespace {
+
+const DecodedTextures::Texture* TextureOf(const gltf::Material* material, const DecodedTextures* textures) {
+  if (material == nullptr || textures == nullptr || !material->base_color_texture.has_value()) return nullptr;
+  const uint32_t t = *material->base_color_texture;
+  return t < textures->textures.size() ? &textures->textures[t] : nullptr;
+}
+
+Vec3f Factor(const gltf::Material* material) {
+  if (material == nullptr) return {1, 1, 1};
+  return {material->base_color[0], material->base_color[1], material->base_color[2]};
+}
+
+}  // namespace
+
+Vec3f BaseColor(const gltf::Material* material, const DecodedTextures* textures, float u, float v) {
+  const Vec3f factor = Factor(material);
+  const DecodedTextures::Texture* tex = TextureOf(material, textures);
+  if (tex == nullptr) return factor;
+  if (!std::isfinite(u) || !std::isfinite(v)) u = v = 0;
+  // glTF's uv (0, 0) is the top-left corner of the image; texel centres at +0.5.
+  const float x = u * tex->width - 0.5f, y = v * tex->height - 0.5f;
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const float ax = x - fx0, ay = y - fy0;
+  auto wrap = [](float c, int n) {
+    const double r = std::fmod(static_cast<double>(c), static_cast<double>(n));
+    const int i = static_cast<int>(r < 0 ? r + n : r);
+    return i >= n ? 0 : i;
+  };
+  const int x0 = wrap(fx0, tex->width), y0 = wrap(fy0, tex->height);
+  const int x1 = x0 + 1 == tex->width ? 0 : x0 + 1, y1 = y0 + 1 == tex->height ? 0 : y0 + 1;
+  const std::array<float, 256>& lut = SrgbTable();
+  auto texel = [&](int tx, int ty) {
+    const uint8_t* p = &tex->rgb[3 * (static_cast<size_t>(ty) * tex->width + tx)];
+    return Vec3f{lut[p[0]], lut[p[1]], lut[p[2]]};
+  };
+  const Vec3f top = texel(x0, y0) * (1 - ax) + texel(x1, y0) * ax;
+  const Vec3f bottom = texel(x0, y1) * (1 - ax) + texel(x1, y1) * ax;
+  return factor * (top * (1 - ay) + bottom * ay);
+}
+
+Vec3f MeanBaseColor(const gltf::Material* material, const DecodedTextures* textures) {
+  const DecodedTextures::Texture* tex = TextureOf(material, textures);
+  return tex == nullptr ? Factor(material) : Factor(material) * tex->mean_linear;
+}
+
+Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near, int spp,
+                int threads, uint64_t seed) {
+  Film film;
+  film.width = width;
+  film.height = height;
+  film.rgb.assign(static_cast<size_t>(width) * height * 3, 0.0f);
+  film.covered.assign(static_cast<size_t>(width) * height, 0);
+  std::vector<SurfaceFrames> frames;
+  for (const ShadingSurface& s : scene.surfaces) {
+    SurfaceFrames f{};
+    for (int i = 0; i < 9; ++i) f.rotation.m[i] = static_cast<float>(s.rotation.m[i]);
+    f.scale = static_cast<float>(s.scale);
+    f.translation = ToFloat(s.translation);
+    frames.push_back(f);
+  }
+  int nx = 1, ny = 1;
+  Strata(spp, &nx, &ny);
+  const Vec3f eye = ToFloat(CameraPosition(camera));
+  const int dims = static_cast<int>(scene.lights.size()) + 1;  // + ambient occlusion
+  std::atomic<int> next_row{0};
+
+  auto work = [&] {
+    RTCIntersectContext primary;
+    rtcInitIntersectContext(&primary);
+    primary.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTCIntersectContext secondary;
+    rtcInitIntersectContext(&secondary);
+    PixelSampler sampler(nx, ny, dims);
+    for (int y = next_row++; y < height; y = next_row++) {
+      for (int x = 0; x < width; ++x) {
+        const size_t pixel = static_cast<size_t>(y) * width + x;
+        Rng rng(MixSeed(seed, pixel), kShadingStream);
+        sampler.Start(&rng);
+        Vec3f sum;
+        bool covered = false;
+        for (int s = 0; s < spp; ++s) {
+          const auto jitter = sampler.Get(s, -1);
+          const Vec3f dir = Normalized(ToFloat(RayDirection(camera, x + jitter[0], y + jitter[1])));
+          RTCRayHit rh = MakeRay({eye.x, eye.y, eye.z}, {dir.x, dir.y, dir.z}, static_cast<float>(near));
+          rtcIntersect1(scene.scene, &primary, &rh);
+          if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+            sum = sum + scene.background;
+            continue;
+          }
+          covered = true;
+          const Hit h = Surface(scene, frames, rh, dir);
+          const Vec3f base = BaseColor(h.material, h.textures, h.u, h.v);
+          const float metallic = h.material != nullptr ? std::clamp(h.material->metallic, 0.0f, 1.0f) : 0.0f;
+          const float roughness = h.material != nullptr ? std::clamp(h.material->roughness, 0.0f, 1.0f) : 1.0f;
+          const Vec3f diffuse = base * ((1 - metallic) / kPi);
+          const Vec3f f0 = Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + base * metallic;
+          const float alpha2 = std::max(roughness * roughness * roughness * roughness, 1e-6f);
+          const float exponent = std::clamp(2.0f / alpha2 - 2.0f, 1.0f, kMaxSpecularExponent);
+          const float specular_norm = (exponent + 8) / (8 * kPi);
+          const Vec3f n = h.shading_normal, ng = h.geometric_normal, wo = dir * -1.0f;
+          const float extent = std::max({std::fabs(h.position.x), std::fabs(h.position.y), std::fabs(h.position.z)});
+          const Vec3f origin = h.position + ng * (1e-4f * (1 + extent));
+          Vec3f radiance;
+          for (size_t l = 0; l < scene.lights.size(); ++l) {
+            const ShadingLight& light = scene.lights[l];
+            Vec3f point = light.position;
+            if (light.area) {
+              const auto a = sampler.Get(s, static_cast<int>(l));
+              point = point + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
+            }
+            Vec3f wi = point - origin;
+            const float d2 = std::max(Dot(wi, wi), 1e-4f);
+            const float d = std::sqrt(d2);
+            wi = wi * (1 / d);
+            const float cos_s = Dot(n, wi);
+            // Below the geometric surface the shadow ray would hit its own triangle.
+            if (cos_s <= 0 || Dot(ng, wi) <= 0) continue;
+            // Cycles: an area light's radiance is P / (4 A); a point light's intensity P / (4 pi^2).
+            float irradiance;
+            if (light.area) {
+              const float cos_l = -Dot(light.normal, wi);
+              if (cos_l <= 0) continue;
+              irradiance = light.power_w / 4 * cos_l * cos_s / d2;
+            } else {
+              irradiance = light.power_w / (4 * kPi * kPi) * cos_s / d2;
+            }
+            if (Occluded(scene.scene, &secondary, origin, wi, d)) continue;
+            const Vec3f half = Normalized(wi + wo);
+            const float spec = specular_norm * std::pow(std::max(Dot(n, half), 0.0f), exponent);
+            radiance = radiance + (diffuse + f0 * spec) * irradiance;
+          }
+          const Vec3f ambient = scene.ambient + scene.sky * ((1 + n.z) / 2);
+          if (Dot(ambient, ambient) > 0 && Dot(diffuse, diffuse) > 0) {
+            const auto a = sampler.Get(s, dims - 1);
+            const float r = std::sqrt(a[0]), phi = 2 * kPi * a[1];
+            Vec3f t, b;
+            Basis(n, &t, &b);
+            const Vec3f wa = t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * std::sqrt(1 - a[0]);
+            // Obscurance rather than binary occlusion: a blocker at distance t lets
+            // t / range through, which is much less noisy at a few rays per pixel. A
+            // direction under the geometric surface (smooth-shaded silhouettes) counts as open.
+            float open = 1;
+            if (Dot(wa, ng) > 0) {
+              RTCRayHit ao = MakeRay({origin.x, origin.y, origin.z}, {wa.x, wa.y, wa.z}, 0.0f);
+              ao.ray.tfar = scene.ambient_occlusion_m;
+              rtcIntersect1(scene.scene, &secondary, &ao);
+              if (ao.hit.geomID != RTC_INVALID_GEOMETRY_ID) open = ao.ray.tfar / scene.ambient_occlusion_m;
+            }
+            radiance = radiance + diffuse * (kPi * open) * ambient;
+          }
+          sum = sum + Vec3f{std::min(radiance.x, kMaxSampleRadiance), std::min(radiance.y, kMaxSampleRadiance),
+                            std::min(radiance.z, kMaxSampleRadiance)};
+        }
+        const float inv = 1.0f / static_cast<float>(spp);
+        film.rgb[3 * pixel] = sum.x * inv;
+        film.rgb[3 * pixel + 1] = sum.y * inv;
+        film.rgb[3 * pixel + 2] = sum.z * inv;
+        film.covered[pixel] = covered ? 1 : 0;
+      }
+    }
+  };
+  const int n_threads = std::clamp(threads, 1, std::max(1, height));
+  if (n_threads == 1) {
+    work();
+  } else {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < n_threads; ++t) pool.emplace_back(work);
+    for (std::thread& t : pool) t.join();
+  }
+  return film;
+}
+
+Image8 EncodeFilm(const Film& film) {
+  Image8 out;
+  out.width = static_cast<uint32_t>(film.width);
+  out.height = static_cast<uint32_t>(film.height);
+  out.channels = 3;
+  out.pixels.resize(film.rgb.size());
+  for (size_t i = 0; i < film.rgb.size(); ++i) out.pixels[i] = LinearToSrgb8(ToneMap(film.rgb[i]));
+  return out;
+}
+
+}  // namespace solid::render

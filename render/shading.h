@@ -1,0 +1,98 @@
+// The shading core shared by Shade (shade.h) and the query views (query_views.h):
+// one stratified ray-traced image of a top-level scene of instances (internal to
+// solid::render). The lighting model is documented in shade.h.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "solid/formats/asset.h"
+#include "solid/formats/image_codec.h"
+#include "solid/render/assets.h"
+#include "solid/render/layout.h"
+
+namespace solid::render {
+
+struct Vec3f {
+  float x = 0, y = 0, z = 0;
+  friend Vec3f operator+(Vec3f a, Vec3f b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+  friend Vec3f operator-(Vec3f a, Vec3f b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+  friend Vec3f operator*(Vec3f a, float s) { return {a.x * s, a.y * s, a.z * s}; }
+  friend Vec3f operator*(Vec3f a, Vec3f b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
+};
+inline float Dot(Vec3f a, Vec3f b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline Vec3f Cross(Vec3f a, Vec3f b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+inline Vec3f ToFloat(Vec3 v) { return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)}; }
+
+// Textures of one asset, 8-bit sRGB RGB, with their mean linear colour.
+struct DecodedTextures {
+  struct Texture {
+    int width = 0, height = 0;
+    std::vector<uint8_t> rgb;
+    Vec3f mean_linear;
+  };
+  std::vector<Texture> textures;
+  uint64_t bytes = 0;
+};
+Result<DecodedTextures> DecodeTextures(const std::vector<gltf::Texture>& textures, std::string_view where);
+
+// sRGB transfer functions.
+float SrgbToLinear(uint8_t v);
+uint8_t LinearToSrgb8(float v);
+// Scene-linear radiance to display-linear [0, 1] (a filmic curve).
+float ToneMap(float v);
+
+// The linear base colour of `material` (nullptr: glTF's default, white) at `uv`.
+Vec3f BaseColor(const gltf::Material* material, const DecodedTextures* textures, float u, float v);
+// The mean linear base colour of `material` over its texture.
+Vec3f MeanBaseColor(const gltf::Material* material, const DecodedTextures* textures);
+
+// What the shader needs of one instance of the top-level scene.
+struct ShadingSurface {
+  const MeshGeometry* mesh = nullptr;
+  const std::vector<gltf::Material>* materials = nullptr;
+  const DecodedTextures* textures = nullptr;  // may be null: no textures
+  Mat3 rotation;  // world from object, without the (uniform) scale
+  double scale = 1;
+  Vec3 translation;
+};
+
+struct ShadingLight {
+  bool area = true;  // false: a point light
+  Vec3f position;
+  Vec3f u_axis, v_axis;  // area: the square's half-side vectors
+  Vec3f normal;          // area: the emitting side
+  float power_w = 0;
+};
+
+struct ShadingScene {
+  RTCScene scene = nullptr;              // instance id k shades as surfaces[k]
+  std::vector<ShadingSurface> surfaces;  // by instance id
+  std::vector<ShadingLight> lights;
+  Vec3f ambient;  // uniform ambient radiance
+  Vec3f sky;      // radiance from above, weighted by (1 + n_z) / 2
+  float ambient_occlusion_m = 0.75f;  // range of the ambient obscurance rays
+  Vec3f background;  // radiance of rays that leave the scene
+};
+
+// A linear image with, per pixel, whether any sample hit a surface.
+struct Film {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // linear radiance, 3 per pixel, row-major
+  std::vector<uint8_t> covered;
+};
+
+// Traces width x height pixels of `camera` with spp stratified samples each, pixel p
+// seeded with MixSeed(seed, p) on the shading stream, rows shared by `threads`.
+Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near, int spp,
+                int threads, uint64_t seed);
+
+// sRGB 8-bit RGB of a linear film, tone mapped by ToneMap.
+Image8 EncodeFilm(const Film& film);
+
+}  // namespace solid::render
