@@ -92,6 +92,7 @@ Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames,
   // From the barycentrics rather than origin + t * dir: the error then does not grow
   // with the distance to the camera, and shadow rays need a smaller offset.
   h.position = f.rotation * ((p0 * b0 + p1 * b1 + p2 * b2) * f.scale) + f.translation;
+  // Instances scale uniformly, so the normals' inverse transpose is the rotation itself.
   h.geometric_normal = Normalized(f.rotation * Cross(p1 - p0, p2 - p0));
   const Vec3f ns = normal(i0) * b0 + normal(i1) * b1 + normal(i2) * b2;
   h.shading_normal = Dot(ns, ns) > 1e-12f ? Normalized(f.rotation * ns) : h.geometric_normal;
