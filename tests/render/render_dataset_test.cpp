@@ -39,6 +39,8 @@ RenderOptions SmallRender(const fs::path& out, int64_t images, int64_t shard_siz
   o.jobs = jobs;
   o.shading.samples_per_pixel = 1;
   o.query_views.long_side = 48;
+  o.query_views.render_size = 82;
+  o.query_views.samples_per_pixel = 1;
   o.query_shard_models = 8;
   return o;
 }
