@@ -50,6 +50,7 @@ struct RenderedImage {
   std::string failure;  // an unusable layout: the image is left out
   ImageRecord image;
   std::vector<InstanceRecord> instances;
+  nlohmann::json lights;
   StageTimes stages;
 };
 
@@ -80,6 +81,7 @@ RenderedImage RenderImage(const LayoutSampler& sampler, const RenderOptions& opt
     }
     return out;
   }
+  out.lights = lights->ToJson();
   ShadeOptions shading = options.shading;
   shading.threads = 1;  // images run in parallel instead
   Result<ShadeResult> shaded = Shade(layout, *lights, shading, textures);
@@ -140,6 +142,7 @@ class Renderer {
     ShardWriteOptions write_options;
     write_options.replace_existing = replace;
     SOLID_ASSIGN_OR_RETURN(ShardWriter writer, ShardWriter::Create(paths_.shard(shard), write_options));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("shard_index", std::to_string(shard)));
     SOLID_RETURN_IF_ERROR(writer.SetMeta("generator_version", manifest_.generator_version));
     SOLID_RETURN_IF_ERROR(writer.SetMeta("params_hash", fmt::format("{:016x}", manifest_.ParamsHash())));
     SOLID_RETURN_IF_ERROR(writer.SetMeta("seed", std::to_string(manifest_.seed)));
@@ -173,6 +176,7 @@ class Renderer {
 
     Status status;
     std::vector<std::string> failures;
+    nlohmann::json lights = nlohmann::json::object();  // image id -> its light rig
     StageTimes stages;
     for (; written < end && status.ok(); ++written) {
       RenderedImage image;
@@ -194,6 +198,7 @@ class Renderer {
         continue;
       }
       const auto start = Clock::now();
+      lights[std::to_string(written)] = std::move(image.lights);
       status = writer.AddImage(image.image);
       for (const InstanceRecord& instance : image.instances) {
         if (!status.ok()) break;
@@ -219,6 +224,7 @@ class Renderer {
     }
     SOLID_RETURN_IF_ERROR(writer.SetMeta("failed_images", nlohmann::json(failures).dump()));
     SOLID_RETURN_IF_ERROR(writer.SetMeta("stage_ms", stages.ToJson().dump()));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("lights", lights.dump()));
     const auto start = Clock::now();
     SOLID_RETURN_IF_ERROR(writer.Commit());
     stages.writing += MillisecondsSince(start);
@@ -293,6 +299,7 @@ class Renderer {
     write_options.replace_existing = replace;
     const fs::path path = paths_.query_shard(q);
     SOLID_ASSIGN_OR_RETURN(QueryShardWriter writer, QueryShardWriter::Create(path, write_options));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("shard_index", std::to_string(q)));
     SOLID_RETURN_IF_ERROR(writer.SetMeta("generator_version", manifest_.generator_version));
     SOLID_RETURN_IF_ERROR(writer.SetMeta("params_hash", fmt::format("{:016x}", manifest_.ParamsHash())));
     for (ModelViews& m : rendered) {
