@@ -18,6 +18,8 @@ Command AddValidate(CLI::App& app);
 Command AddIndex(CLI::App& app);
 Command AddConvert(CLI::App& app);
 Command AddSample(CLI::App& app);
+Command AddOptimize(CLI::App& app);
+Command AddMetrics(CLI::App& app);
 
 // Prints "solid: <message>" on stderr and returns the exit code for the status.
 int Fail(const Status& status);
