@@ -188,11 +188,9 @@ struct Search {
     return Status::Ok();
   }
 
-  // For an unmet target: the free dimensions at a bound for which a step inside makes the
-  // metric worse, i.e. the bound is in the way.
-  Status FindBlockers(TargetResult* result) {
-    const double need = result->target.value - result->predicted.mean;
-    const double at_best = MetricOf(report.search_metrics, result->target.metric).mean;
+  // For the unmet targets: the free dimensions at a bound for which a step inside makes the
+  // metric worse, i.e. the bound is in the way. One probe per dimension at a bound.
+  Status FindBlockers(std::vector<TargetResult>& results) {
     phase = "probe";
     for (size_t i = 0; i < dims.size(); ++i) {
       const bool at_lo = best_unit[i] <= kAtBound, at_hi = best_unit[i] >= 1 - kAtBound;
@@ -204,12 +202,15 @@ struct Search {
       Result<double> f = Run(probe, nullptr);
       best_objective = saved_best;
       SOLID_RETURN_IF_ERROR(f.status());
-      const double moved = MetricOf(report.trace.back().metrics, result->target.metric).mean - at_best;
-      if (moved * need < 0) {
-        result->blocked_by.push_back(fmt::format("{} at its {} bound {:g} (a step inside moves {} from {:.4g} to {:.4g})",
-                                                 dims[i].name, at_lo ? "lower" : "upper",
-                                                 at_lo ? dims[i].lo : dims[i].hi, MetricName(result->target.metric),
-                                                 at_best, at_best + moved));
+      for (TargetResult& t : results) {
+        if (t.met) continue;
+        const double need = t.target.value - t.predicted.mean;
+        const double at_best = MetricOf(report.search_metrics, t.target.metric).mean;
+        const double moved = MetricOf(report.trace.back().metrics, t.target.metric).mean - at_best;
+        if (moved * need >= 0) continue;
+        t.blocked_by.push_back(fmt::format("{} at its {} bound {:g} (a step inside moves {} from {:.4g} to {:.4g})",
+                                           dims[i].name, at_lo ? "lower" : "upper", at_lo ? dims[i].lo : dims[i].hi,
+                                           MetricName(t.target.metric), at_best, at_best + moved));
       }
     }
     return Status::Ok();
@@ -411,9 +412,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     r.all_met = r.all_met && tr.met;
     r.results.push_back(std::move(tr));
   }
-  for (TargetResult& tr : r.results) {
-    if (!tr.met) SOLID_RETURN_IF_ERROR(s.FindBlockers(&tr));
-  }
+  if (!r.all_met) SOLID_RETURN_IF_ERROR(s.FindBlockers(r.results));
   if (options.pilot_layouts > 0) {
     EvaluationOptions pilot = s.Eval(kPilotFirst, options.pilot_layouts);
     pilot.width = options.start.width;

@@ -130,9 +130,11 @@ const std::vector<std::string>& SearchSpace::KnobNames() {
 
 SearchSpace SearchSpace::FitKnobs(const LayoutParams& start) {
   SearchSpace space;
-  for (std::string_view name : {"objects.attempts", "placement.occlude_prob", "placement.cluster_margin_m",
-                                "placement.depth_by_size_prob", "camera.ring_m", "camera.height_m",
-                                "objects.scale.p", "objects.scale.range_m"}) {
+  // In order of how directly each moves a metric (scale shares, count, occlusion, then the
+  // camera): Sbplx works through the dimensions in this order at first.
+  for (std::string_view name : {"objects.scale.range_m", "objects.scale.p", "objects.attempts", "placement.occlude_prob",
+                                "placement.cluster_margin_m", "placement.depth_by_size_prob", "camera.ring_m",
+                                "camera.height_m"}) {
     if (name == "objects.scale.p" && !(start.scale.mixture && start.scale.buckets.size() >= 2)) continue;
     space.knobs_.push_back(DefaultKnob(*FindKnob(name), start));
   }

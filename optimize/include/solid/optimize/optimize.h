@@ -61,7 +61,7 @@ double Objective(const ProxyMetrics& metrics, const std::vector<Target>& targets
 struct EvaluationOptions {
   uint64_t seed = 1;
   int64_t first = 0;
-  int64_t layouts = 300;
+  int64_t layouts = 200;
   // Mask resolution; 0: the params' output resolution. Other resolutions should keep the
   // output's aspect ratio, or the layouts themselves change (the frustum test).
   int width = 0, height = 0;
@@ -106,7 +106,7 @@ struct OptimizeOptions {
   std::string global_algorithm;
   int global_evaluations = 0;
   uint64_t seed = 1;
-  int64_t layouts = 300;  // per evaluation, in the first round
+  int64_t layouts = 200;  // per evaluation, in the first round
   int eval_width = 0, eval_height = 0;  // 0: DefaultEvaluationResolution
   int64_t confirm_layouts = 2000;
   int64_t pilot_layouts = 0;  // 0: no pilot
