@@ -7,6 +7,8 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "solid/formats/status.h"
 #include "solid/render/params.h"
@@ -21,6 +23,11 @@ Command AddIndex(CLI::App& app);
 Command AddConvert(CLI::App& app);
 Command AddSample(CLI::App& app);
 Command AddRender(CLI::App& app);
+Command AddOptimize(CLI::App& app);
+Command AddMetrics(CLI::App& app);
+
+// "WIDTHxHEIGHT", each 16..8192; errors name `flag`.
+Result<std::pair<int, int>> ParseResolution(std::string_view flag, const std::string& text);
 
 // Where layout params come from, for every command that samples layouts.
 struct ParamsFlags {

@@ -1,11 +1,22 @@
 #include <fmt/format.h>
 
 #include <cstdio>
+#include <tuple>
 
 #include "commands.h"
 #include "exit_codes.h"
 
 namespace solid::cli {
+
+Result<std::pair<int, int>> ParseResolution(std::string_view flag, const std::string& text) {
+  int w = 0, h = 0;
+  char x = 0, rest = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < 16 || h < 16 || w > 8192 ||
+      h > 8192) {
+    return InvalidArgumentError(fmt::format("{} {}: expected WIDTHxHEIGHT, each 16..8192", flag, text));
+  }
+  return std::pair{w, h};
+}
 
 void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags) {
   auto* params = cmd->add_option("--params", flags->params, "Params file (JSON; see schemas/params.schema.json)");
@@ -23,14 +34,8 @@ Result<render::LayoutParams> ResolveParams(const ParamsFlags& f) {
   Result<render::LayoutParams> params =
       !f.params.empty() ? render::LoadParamsFile(f.params) : render::LoadPreset(f.preset);
   if (!params.ok() || f.resolution.empty()) return params;
-  int w = 0, h = 0;
-  char x = 0, rest = 0;
-  if (std::sscanf(f.resolution.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < 16 || h < 16 ||
-      w > 8192 || h > 8192) {
-    return InvalidArgumentError(fmt::format("--resolution {}: expected WIDTHxHEIGHT, each 16..8192", f.resolution));
-  }
-  params->width = w;
-  params->height = h;
+  SOLID_ASSIGN_OR_RETURN(const auto size, ParseResolution("--resolution", f.resolution));
+  std::tie(params->width, params->height) = size;
   return params;
 }
 

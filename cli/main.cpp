@@ -14,7 +14,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", SOLID_VERSION);
   app.require_subcommand(1);
   std::map<CLI::App*, solid::cli::Command> commands;
-  for (auto add : {solid::cli::AddConvert, solid::cli::AddSample, solid::cli::AddRender, solid::cli::AddInspect,
+  for (auto add : {solid::cli::AddConvert, solid::cli::AddSample, solid::cli::AddOptimize, solid::cli::AddRender,
+                    solid::cli::AddMetrics, solid::cli::AddInspect,
                     solid::cli::AddValidate, solid::cli::AddIndex}) {
     solid::cli::Command run = add(app);
     commands[app.get_subcommands({}).back()] = std::move(run);

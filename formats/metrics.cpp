@@ -1,6 +1,9 @@
 #include "solid/formats/metrics.h"
 
+#include <algorithm>
 #include <cmath>
+
+#include "solid/formats/status.h"
 
 namespace solid {
 
@@ -21,6 +24,7 @@ void MetricsAccumulator::Moments::Merge(const Moments& o) {
 }
 
 void MetricsAccumulator::Merge(const MetricsAccumulator& o) {
+  SOLID_CHECK(area_scale_ == o.area_scale_);
   images_ += o.images_;
   instances_ += o.instances_;
   objects_.Merge(o.objects_);
@@ -59,7 +63,9 @@ void MetricsAccumulator::AddVisibleInstance(uint64_t visible_area, uint64_t full
     occlusion_.Add(static_cast<double>(full_area - std::min(full_area, visible_area)) /
                    static_cast<double>(full_area));
   }
-  switch (ScaleClassOfArea(visible_area)) {
+  const uint64_t scaled_area =
+      area_scale_ == 1 ? visible_area : static_cast<uint64_t>(std::llround(static_cast<double>(visible_area) * area_scale_));
+  switch (ScaleClassOfArea(scaled_area)) {
     case ScaleClass::kSmall: ++small_; break;
     case ScaleClass::kMedium: ++medium_; break;
     case ScaleClass::kLarge: ++large_; break;

@@ -1,0 +1,287 @@
+#include <fmt/format.h>
+
+#include <iostream>
+
+#include "commands.h"
+#include "exit_codes.h"
+#include "solid/formats/files.h"
+#include "solid/optimize/optimize.h"
+#include "solid/render/sample.h"
+
+namespace solid::cli {
+namespace {
+
+using optimize::Metric;
+
+struct OptimizeFlags {
+  std::string preset, params, space, assets, rooms, out, trace, target_row, eval_resolution;
+  std::vector<std::string> free, fix;
+  std::optional<double> count, occlusion;
+  std::vector<double> scale;
+  double tol_count = optimize::DefaultTolerance(Metric::kObjectsPerImage);
+  double tol_occlusion = optimize::DefaultTolerance(Metric::kOcclusion);
+  double tol_scale = optimize::DefaultTolerance(Metric::kSmall);
+  optimize::OptimizeOptions options;
+  bool json = false;
+};
+
+// --target-row first, then the single targets override or add.
+Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f) {
+  std::vector<optimize::Target> targets;
+  if (!f.target_row.empty()) {
+    SOLID_ASSIGN_OR_RETURN(targets, optimize::TableRowTargets(f.target_row));
+  }
+  auto set = [&](Metric m, double value) {
+    std::erase_if(targets, [&](const optimize::Target& t) { return t.metric == m; });
+    targets.push_back({m, value, 0});
+  };
+  if (f.count) set(Metric::kObjectsPerImage, *f.count);
+  if (f.occlusion) set(Metric::kOcclusion, *f.occlusion);
+  if (!f.scale.empty()) {
+    if (f.scale.size() != 3) return InvalidArgumentError("--target-scale: expected three shares SMALL,MEDIUM,LARGE");
+    set(Metric::kSmall, f.scale[0]);
+    set(Metric::kMedium, f.scale[1]);
+    set(Metric::kLarge, f.scale[2]);
+  }
+  for (optimize::Target& t : targets) {
+    t.tolerance = t.metric == Metric::kObjectsPerImage ? f.tol_count
+                  : t.metric == Metric::kOcclusion     ? f.tol_occlusion
+                                                       : f.tol_scale;
+  }
+  if (targets.empty()) return InvalidArgumentError("no target: give --target-row or --target-count/-occlusion/-scale");
+  return targets;
+}
+
+std::string Percent(Metric m, double v) {
+  return m == Metric::kObjectsPerImage ? fmt::format("{:.2f}", v) : fmt::format("{:.1f}%", 100 * v);
+}
+
+void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
+  fmt::print("{} after {} evaluations, {} round(s), {:.1f} s: {}\n", r.all_met ? "MET" : "NOT MET", r.evaluations,
+             r.rounds, r.seconds, r.stop_reason);
+  fmt::print("evaluation resolution {}x{}; achieved = {} fresh layouts (95% CI)\n", r.eval_width, r.eval_height,
+             r.confirmation.images);
+  fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", "metric", "target", "tol", "achieved", r.pilot ? "  pilot (output res)" : "");
+  for (const optimize::TargetResult& t : r.results) {
+    const Metric m = t.target.metric;
+    std::string pilot;
+    if (t.pilot) {
+      pilot = fmt::format("  {} +- {} {}", Percent(m, t.pilot->mean), Percent(m, t.pilot->ci95),
+                          t.pilot_agrees ? "agrees" : "DISAGREES");
+    }
+    fmt::print("  {:<18} {:>9} {:>8} {:>18} {}{}\n", optimize::MetricName(m), Percent(m, t.target.value),
+               Percent(m, t.target.tolerance),
+               fmt::format("{} +- {}", Percent(m, t.predicted.mean), Percent(m, t.predicted.ci95)),
+               t.met ? "ok" : "MISSED", pilot);
+    for (const std::string& b : t.blocked_by) fmt::print("      blocked by {}\n", b);
+    if (!t.met && t.blocked_by.empty()) {
+      fmt::print("      no free dimension at a bound holds it back: the search stopped ({}) first\n", r.stop_reason);
+    }
+  }
+  fmt::print("point:\n");
+  for (size_t i = 0; i < r.dimensions.size(); ++i) {
+    fmt::print("  {:<34} {:>9.4g}   [{:g}, {:g}]\n", r.dimensions[i].name, r.best_x[i], r.dimensions[i].lo,
+               r.dimensions[i].hi);
+  }
+  fmt::print("params written to {}\n", out);
+}
+
+int RunOptimize(OptimizeFlags& f) {
+  optimize::OptimizeOptions& o = f.options;
+  optimize::SearchSpace space;
+  if (!f.space.empty()) {
+    SOLID_ASSIGN_OR_RETURN_EXIT(space, optimize::SearchSpace::Load(f.space));
+  }
+  Result<render::LayoutParams> start = !f.params.empty()                ? render::LoadParamsFile(f.params)
+                                       : !f.preset.empty()              ? render::LoadPreset(f.preset)
+                                       : space.start_params().has_value() ? render::LoadParamsFile(*space.start_params())
+                                       : space.start_preset().has_value() ? render::LoadPreset(*space.start_preset())
+                                                                          : InvalidArgumentError("give --preset, --params, or a --space with a start");
+  if (!start.ok()) return Fail(start.status());
+  o.start = *start;
+  if (f.space.empty()) space = optimize::SearchSpace::FitKnobs(o.start);
+  for (const std::string& k : f.free) {
+    if (Status s = space.Free(k, o.start); !s.ok()) return Fail(s);
+  }
+  for (const std::string& k : f.fix) {
+    if (Status s = space.Fix(k); !s.ok()) return Fail(s);
+  }
+  o.space = std::move(space);
+  SOLID_ASSIGN_OR_RETURN_EXIT(o.targets, ResolveTargets(f));
+  if (!f.eval_resolution.empty()) {
+    SOLID_ASSIGN_OR_RETURN_EXIT(auto wh, ParseResolution("--eval-resolution", f.eval_resolution));
+    std::tie(o.eval_width, o.eval_height) = wh;
+  }
+  SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
+                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
+  o.on_evaluation = [](const optimize::TraceRow& t) {
+    const ProxyMetrics& m = t.metrics;
+    fmt::print(stderr, "eval {:>4} r{} {:<6} objective {:>9.3f}  count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%  {:6.1f} s\n",
+               t.evaluation, t.round, t.phase, t.objective, m.objects_per_image.mean, 100 * m.occlusion.mean,
+               100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, t.seconds);
+  };
+  SOLID_ASSIGN_OR_RETURN_EXIT(optimize::OptimizeReport report, optimize::Optimize(library, o));
+  nlohmann::json params = render::ParamsToJson(report.best);
+  params["$comment"] = fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
+                                   report.all_met ? "met" : "NOT met");
+  const std::string text = params.dump(2) + "\n";
+  if (Status s = files::WriteFileAtomically(f.out, std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size()));
+      !s.ok()) {
+    return Fail(s);
+  }
+  if (!f.trace.empty()) {
+    if (Status s = optimize::WriteTrace(report, f.trace); !s.ok()) return Fail(s);
+  }
+  if (f.json) {
+    std::cout << report.ToJson().dump(2) << "\n";
+  } else {
+    PrintReport(report, f.out);
+  }
+  return report.all_met ? kExitOk : kExitProblems;
+}
+
+struct MetricsFlags {
+  std::string dataset, compare, target_row, assets, rooms;
+  int64_t layouts = 2000;
+  uint64_t seed = 1;
+  int jobs = 0;
+  bool json = false;
+};
+
+int RunMetrics(const MetricsFlags& f) {
+  SOLID_ASSIGN_OR_RETURN_EXIT(ProxyMetrics measured, optimize::DatasetMetrics(f.dataset));
+  std::vector<optimize::Comparison> comparisons;
+  std::string against;
+  if (!f.target_row.empty()) {
+    SOLID_ASSIGN_OR_RETURN_EXIT(std::vector<optimize::Target> targets, optimize::TableRowTargets(f.target_row));
+    comparisons = optimize::CompareWithTargets(measured, targets);
+    against = "Table-1 row " + f.target_row;
+  } else if (!f.compare.empty()) {
+    SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, render::LoadParamsFile(f.compare));
+    SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
+                                render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
+    SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
+                                render::LayoutSampler::Create(params, library));
+    render::SampleOptions options;
+    options.seed = f.seed;
+    options.first = optimize::kPilotFirst;
+    options.layouts = f.layouts;
+    options.jobs = f.jobs;
+    SOLID_ASSIGN_OR_RETURN_EXIT(render::SampleReport predicted, render::RunSample(*sampler, options));
+    comparisons = optimize::CompareWithPrediction(measured, predicted.metrics);
+    against = fmt::format("{} sampled ({} layouts at {}x{})", f.compare, f.layouts, params.width, params.height);
+  }
+  bool agree = true;
+  for (const optimize::Comparison& c : comparisons) agree = agree && c.agrees;
+  if (f.json) {
+    nlohmann::json j = {{"dataset", f.dataset}, {"metrics", measured.ToJson()}};
+    if (!comparisons.empty()) {
+      nlohmann::json rows = nlohmann::json::array();
+      for (const optimize::Comparison& c : comparisons) {
+        rows.push_back({{"metric", optimize::MetricName(c.metric)},
+                        {"measured", {{"mean", c.measured.mean}, {"ci95", c.measured.ci95}}},
+                        {"reference", {{"mean", c.reference.mean}, {"ci95", c.reference.ci95}}},
+                        {"tolerance", c.tolerance},
+                        {"agrees", c.agrees}});
+      }
+      j["compared_with"] = against;
+      j["comparison"] = rows;
+      j["all_agree"] = agree;
+    }
+    std::cout << j.dump(2) << "\n";
+  } else {
+    fmt::print("{}: {} images, {} visible instances (95% CI)\n", f.dataset, measured.images,
+               measured.visible_instances);
+    if (!comparisons.empty()) fmt::print("compared with {}\n", against);
+    for (const optimize::Comparison& c : optimize::CompareWithPrediction(measured, measured)) {
+      const Metric m = c.metric;
+      std::string ref;
+      for (const optimize::Comparison& k : comparisons) {
+        if (k.metric != m) continue;
+        ref = fmt::format("   vs {} +- {} (tol {}) {}", Percent(m, k.reference.mean), Percent(m, k.reference.ci95),
+                          Percent(m, k.tolerance), k.agrees ? "ok" : "DIFFERS");
+      }
+      fmt::print("  {:<18} {:>8} +- {:<7}{}\n", optimize::MetricName(m), Percent(m, c.measured.mean),
+                 Percent(m, c.measured.ci95), ref);
+    }
+  }
+  return agree ? kExitOk : kExitProblems;
+}
+
+}  // namespace
+
+Command AddOptimize(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "optimize",
+      "Search layout knobs with NLopt until the proxy metrics of sampled layouts (mask pass only) hit targets; "
+      "write the params file.");
+  auto f = std::make_shared<OptimizeFlags>();
+  optimize::OptimizeOptions& o = f->options;
+  auto* preset = cmd->add_option("--preset", f->preset, "Start from this Table-1 preset");
+  auto* params = cmd->add_option("--params", f->params, "Start from this params file");
+  preset->excludes(params);
+  params->excludes(preset);
+  cmd->add_option("--space", f->space, "Search-space file (schemas/search-space.schema.json); default: the fit knobs");
+  cmd->add_option("--free", f->free, "Also free these knobs (comma-separated, default bounds)")->delimiter(',');
+  cmd->add_option("--fix", f->fix, "Fix these knobs at the start's value (comma-separated)")->delimiter(',');
+  cmd->add_option("--assets", f->assets, "Assets directory with the models")->required();
+  cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  cmd->add_option("--out,-o", f->out, "Params file to write (usable by solid sample --params)")->required();
+  cmd->add_option("--trace", f->trace, "Write every evaluation to this file (.csv, else JSON)");
+  cmd->add_option("--target-row", f->target_row, "Targets of a Table-1 row (a preset name)");
+  cmd->add_option("--target-count", f->count, "Target visible objects per image");
+  cmd->add_option("--target-occlusion", f->occlusion, "Target mean occlusion, a fraction (0.38)");
+  cmd->add_option("--target-scale", f->scale, "Target small,medium,large shares, fractions (0.33,0.39,0.28)")
+      ->delimiter(',');
+  cmd->add_option("--tol-count", f->tol_count, "Tolerance of the count")->capture_default_str();
+  cmd->add_option("--tol-occlusion", f->tol_occlusion, "Tolerance of the occlusion (fraction)")->capture_default_str();
+  cmd->add_option("--tol-scale", f->tol_scale, "Tolerance of each scale share (fraction)")->capture_default_str();
+  cmd->add_option("--algorithm", o.algorithm, "Local NLopt algorithm: sbplx, neldermead, bobyqa, cobyla, praxis")
+      ->capture_default_str();
+  cmd->add_option("--global", o.global_algorithm, "Global NLopt algorithm run first: crs2, isres, esch, direct");
+  cmd->add_option("--global-evals", o.global_evaluations, "Evaluations of the global phase (default: a third of --max-evals)");
+  cmd->add_option("--layouts,-n", o.layouts, "Layouts per evaluation (common seeds; doubled each round)")
+      ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{1000000}));
+  cmd->add_option("--eval-resolution", f->eval_resolution, "Mask resolution of evaluations (default: 2/3 of the output's)");
+  cmd->add_option("--confirm-layouts", o.confirm_layouts, "Fresh layouts that re-measure the best point")
+      ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{10000000}));
+  cmd->add_option("--pilot", o.pilot_layouts, "Fresh layouts at the output resolution checked against the prediction")
+      ->capture_default_str();
+  cmd->add_option("--max-evals", o.max_evaluations, "Evaluation budget")->capture_default_str();
+  cmd->add_option("--max-seconds", o.max_seconds, "Time budget of the search")->capture_default_str();
+  cmd->add_option("--margin", o.search_margin, "Stop the search within this share of each tolerance")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (a missed confirmation starts another)")
+      ->capture_default_str()->check(CLI::Range(1, 10));
+  cmd->add_option("--seed", o.seed, "Layout seed")->capture_default_str();
+  cmd->add_option("--jobs,-j", o.jobs, "Layouts in parallel (default: all cores)");
+  cmd->add_flag("--json", f->json, "Print the summary as JSON");
+  return [f]() { return RunOptimize(*f); };
+}
+
+Command AddMetrics(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "metrics", "Proxy metrics of a rendered dataset from its stored masks, with 95% CIs; optionally compared with "
+                 "a Table-1 row's targets or with a params file's sampled prediction.");
+  auto f = std::make_shared<MetricsFlags>();
+  cmd->add_option("dataset", f->dataset, "Dataset directory")->required();
+  auto* row = cmd->add_option("--target-row", f->target_row, "Compare with the targets of this Table-1 row");
+  auto* compare = cmd->add_option("--compare", f->compare, "Compare with the metrics of this params file, sampled");
+  row->excludes(compare);
+  compare->excludes(row);
+  cmd->add_option("--assets", f->assets, "Models for --compare");
+  cmd->add_option("--rooms", f->rooms, "Rooms for --compare (default: --assets)");
+  cmd->add_option("--layouts,-n", f->layouts, "Layouts sampled for --compare")->capture_default_str();
+  cmd->add_option("--seed", f->seed, "Seed of the layouts sampled for --compare")->capture_default_str();
+  cmd->add_option("--jobs,-j", f->jobs, "Layouts in parallel for --compare (default: all cores)");
+  cmd->add_flag("--json", f->json, "Print JSON");
+  return [f]() -> int {
+    if (!f->compare.empty() && f->assets.empty()) {
+      fmt::print(stderr, "solid metrics: --compare needs --assets\n");
+      return kExitUsage;
+    }
+    return RunMetrics(*f);
+  };
+}
+
+}  // namespace solid::cli

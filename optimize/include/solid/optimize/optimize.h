@@ -1,0 +1,181 @@
+// `solid optimize`: search the layout knobs of a search space (search_space.h) with NLopt
+// until the proxy metrics of sampled layouts (mask pass only) hit targets, before any
+// full render; and the metrics of rendered datasets (`solid metrics`).
+//
+// Evaluation of a point: `layouts` layouts drawn with the same seeds for every point
+// (common random numbers: the objective is a deterministic function of the point),
+// masks at the evaluation resolution, and COCO scale classes against the params' OUTPUT
+// resolution (areas scaled by the pixel-count ratio; see MetricsAccumulator). The
+// objective is sum_i ((metric_i - target_i) / tolerance_i)^2. Common seeds are the
+// layout indices [0, layouts); the best point is re-measured at the end on a disjoint
+// index range starting at kConfirmFirst, and pilots start at kPilotFirst.
+//
+// Thread safety: Optimize and Evaluate use `jobs` threads and may run concurrently on
+// one AssetLibrary.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "solid/formats/metrics.h"
+#include "solid/formats/status.h"
+#include "solid/optimize/search_space.h"
+#include "solid/render/assets.h"
+#include "solid/render/params.h"
+
+namespace solid::optimize {
+
+inline constexpr int64_t kConfirmFirst = int64_t{1} << 40;
+inline constexpr int64_t kPilotFirst = int64_t{1} << 41;
+
+enum class Metric { kObjectsPerImage, kOcclusion, kSmall, kMedium, kLarge };
+// "objects_per_image", "occlusion", "small", "medium", "large".
+std::string_view MetricName(Metric metric);
+Estimate MetricOf(const ProxyMetrics& metrics, Metric metric);
+
+// The acceptance of solid-method.md 4.3: count +-0.25, occlusion +-1.5 points, each
+// scale share +-2 points (shares and occlusion are fractions: 0.015, 0.02).
+double DefaultTolerance(Metric metric);
+
+struct Target {
+  Metric metric = Metric::kObjectsPerImage;
+  double value = 0;
+  double tolerance = 0;
+};
+
+// The targets of a Table-1 row by its preset name (solid-method.md 4.3), with the default
+// tolerances; kNotFound lists the rows.
+Result<std::vector<Target>> TableRowTargets(std::string_view row);
+
+// sum over targets of ((metric - target) / tolerance)^2.
+double Objective(const ProxyMetrics& metrics, const std::vector<Target>& targets);
+
+struct EvaluationOptions {
+  uint64_t seed = 1;
+  int64_t first = 0;
+  int64_t layouts = 200;
+  // Mask resolution; 0: the params' output resolution. Other resolutions should keep the
+  // output's aspect ratio, or the layouts themselves change (the frustum test).
+  int width = 0, height = 0;
+  int jobs = 0;  // 0: all cores
+};
+
+struct Evaluation {
+  ProxyMetrics metrics;
+  int64_t failed_layouts = 0;  // no usable draw within the restart budget; not in the metrics
+  double seconds = 0;
+};
+
+// The proxy metrics of `params` over layouts first .. first + layouts - 1. Deterministic:
+// the same for any number of jobs.
+Result<Evaluation> Evaluate(const render::LayoutParams& params, std::shared_ptr<render::AssetLibrary> library,
+                            const EvaluationOptions& options);
+
+// The evaluation resolution used when none is given: two thirds of the output's width and
+// height (213x160 for 320x240), where the object count matches the output's and a mask
+// pass costs about a third.
+void DefaultEvaluationResolution(const render::LayoutParams& params, int* width, int* height);
+
+struct TraceRow {
+  int evaluation = 0;  // from 1
+  int round = 0;
+  std::string phase;   // "start", "global", "local", "probe"
+  std::vector<double> x;
+  ProxyMetrics metrics;
+  double objective = 0;
+  double seconds = 0;  // since the start of Optimize
+  int64_t layouts = 0;
+};
+
+struct OptimizeOptions {
+  render::LayoutParams start;
+  SearchSpace space;
+  std::vector<Target> targets;
+  // NLopt local algorithm: "sbplx" (default), "neldermead", "bobyqa", "cobyla", "praxis".
+  std::string algorithm = "sbplx";
+  // Optional global phase first: "crs2", "isres", "esch", "direct"; it gets
+  // global_evaluations (0: a third of max_evaluations).
+  std::string global_algorithm;
+  int global_evaluations = 0;
+  uint64_t seed = 1;
+  int64_t layouts = 200;  // per evaluation, in the first round
+  int eval_width = 0, eval_height = 0;  // 0: DefaultEvaluationResolution
+  int64_t confirm_layouts = 2000;
+  int64_t pilot_layouts = 0;  // 0: no pilot
+  int max_evaluations = 300;
+  double max_seconds = 300;
+  int jobs = 0;
+  // The search stops once every target is within this share of its tolerance on the common
+  // seeds, leaving the rest of the tolerance to sampling error.
+  double search_margin = 0.5;
+  // When the fresh-seed confirmation misses a target, the search resumes from the best point
+  // with twice the layouts and half the step, at most this many rounds in all.
+  int max_rounds = 3;
+  std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
+};
+
+
+struct TargetResult {
+  Target target;
+  Estimate predicted;  // on the fresh seeds at the evaluation resolution
+  bool met = false;    // |predicted - target| <= tolerance
+  std::optional<Estimate> pilot;  // at the output resolution
+  bool pilot_agrees = false;      // |pilot - predicted| <= tolerance + the difference's 95% CI
+  // Why an unmet target could not be met: free dimensions at a bound in the direction
+  // that would help ("objects.attempts.low at its upper bound 60").
+  std::vector<std::string> blocked_by;
+};
+
+struct OptimizeReport {
+  render::LayoutParams best;
+  std::vector<Dimension> dimensions;
+  std::vector<double> best_x;
+  std::vector<TargetResult> results;
+  bool all_met = false;
+  ProxyMetrics search_metrics;  // of the best point on the common seeds
+  ProxyMetrics confirmation;    // fresh seeds, evaluation resolution
+  std::optional<ProxyMetrics> pilot;
+  int eval_width = 0, eval_height = 0;
+  int evaluations = 0, rounds = 0;
+  double seconds = 0;
+  std::string stop_reason;
+  std::vector<TraceRow> trace;
+  nlohmann::json ToJson() const;  // everything but the trace
+};
+
+// kInvalidArgument for an unknown algorithm, a space that does not fit the start, or no
+// targets; evaluation errors (unreadable assets) end the search with their status. An
+// infeasible target is not an error: the report has the closest point, met = false and
+// blocked_by.
+Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, const OptimizeOptions& options);
+
+// The trace as CSV (path ending in .csv: one row per evaluation, metrics and every
+// dimension by name) or JSON (an array of objects), written atomically.
+Status WriteTrace(const OptimizeReport& report, const std::filesystem::path& path);
+
+// Proxy metrics of a rendered dataset, computed from its stored masks (COCO RLE decoded,
+// areas counted; no image is read). Errors name the shard and image.
+Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root);
+
+// One metric of a dataset against a target or a prediction.
+struct Comparison {
+  Metric metric = Metric::kObjectsPerImage;
+  Estimate measured, reference;  // a target has ci95 0
+  double tolerance = 0;
+  bool agrees = false;  // see the two functions below
+};
+// Against targets: agreement is |measured - target| <= tolerance (the acceptance).
+std::vector<Comparison> CompareWithTargets(const ProxyMetrics& measured, const std::vector<Target>& targets);
+// Against a prediction (the metrics of sampled layouts): agreement is within the default
+// tolerance plus the 95% CI of the difference.
+std::vector<Comparison> CompareWithPrediction(const ProxyMetrics& measured, const ProxyMetrics& predicted);
+
+}  // namespace solid::optimize

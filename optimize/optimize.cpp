@@ -1,0 +1,547 @@
+#include "solid/optimize/optimize.h"
+
+#include <fmt/format.h>
+
+#include <nlopt.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <thread>
+
+#include "solid/formats/dataset.h"
+#include "solid/formats/files.h"
+#include "solid/formats/rle.h"
+#include "solid/formats/shard.h"
+#include "solid/render/sample.h"
+
+namespace solid::optimize {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using render::LayoutParams;
+
+double SecondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+constexpr Metric kMetrics[] = {Metric::kObjectsPerImage, Metric::kOcclusion, Metric::kSmall, Metric::kMedium,
+                               Metric::kLarge};
+
+// solid-method.md 4.3: count, occlusion, small, medium, large.
+struct RowTargets {
+  std::string_view row;
+  double values[5];
+};
+constexpr RowTargets kTable1[] = {
+    {"random-placement", {8.73, 0.19, 0.18, 0.52, 0.30}},   {"occlusion", {7.73, 0.32, 0.23, 0.48, 0.29}},
+    {"scale-distribution", {8.47, 0.33, 0.32, 0.37, 0.31}}, {"rotation", {8.10, 0.33, 0.35, 0.36, 0.29}},
+    {"scenenet-background", {8.72, 0.37, 0.38, 0.34, 0.28}}, {"more-objects", {13.72, 0.38, 0.33, 0.39, 0.28}},
+};
+
+// A point moved this far (in the unit cube) inside from a bound tells whether the bound is
+// what stops a target.
+constexpr double kProbeStep = 0.1;
+constexpr double kAtBound = 1e-3;
+
+struct NloptDeleter {
+  void operator()(nlopt_opt o) const { nlopt_destroy(o); }
+};
+using Nlopt = std::unique_ptr<std::remove_pointer_t<nlopt_opt>, NloptDeleter>;
+
+Result<nlopt_algorithm> AlgorithmByName(std::string_view name, bool global) {
+  struct Entry {
+    std::string_view name;
+    nlopt_algorithm algorithm;
+    bool global;
+  };
+  static constexpr Entry kAlgorithms[] = {
+      {"sbplx", NLOPT_LN_SBPLX, false},     {"neldermead", NLOPT_LN_NELDERMEAD, false},
+      {"bobyqa", NLOPT_LN_BOBYQA, false},   {"cobyla", NLOPT_LN_COBYLA, false},
+      {"praxis", NLOPT_LN_PRAXIS, false},   {"crs2", NLOPT_GN_CRS2_LM, true},
+      {"isres", NLOPT_GN_ISRES, true},      {"esch", NLOPT_GN_ESCH, true},
+      {"direct", NLOPT_GN_DIRECT_L, true},
+  };
+  std::string valid;
+  for (const Entry& e : kAlgorithms) {
+    if (e.global != global) continue;
+    if (e.name == name) return e.algorithm;
+    valid += (valid.empty() ? "" : ", ") + std::string(e.name);
+  }
+  return InvalidArgumentError(
+      fmt::format("unknown {} algorithm \"{}\"; choose one of {}", global ? "global" : "local", name, valid));
+}
+
+bool Within(const ProxyMetrics& m, const std::vector<Target>& targets, double share) {
+  for (const Target& t : targets) {
+    if (!(std::abs(MetricOf(m, t.metric).mean - t.value) <= share * t.tolerance)) return false;
+  }
+  return true;
+}
+
+// The state of one Optimize call, shared with NLopt's callback.
+struct Search {
+  std::shared_ptr<render::AssetLibrary> library;
+  const OptimizeOptions& options;
+  std::vector<Dimension> dims;
+  Clock::time_point start;
+  OptimizeReport report;
+  Status error;
+  int round = 0;
+  int64_t layouts = 0;
+  std::string phase;
+  nlopt_opt running = nullptr;
+  bool met = false;  // the best point is within search_margin on the common seeds
+  double best_objective = std::numeric_limits<double>::infinity();
+  std::vector<double> best_unit;
+
+  std::vector<double> ToUnits(const double* unit) const {
+    std::vector<double> v(dims.size());
+    for (size_t i = 0; i < dims.size(); ++i) v[i] = dims[i].lo + unit[i] * (dims[i].hi - dims[i].lo);
+    return v;
+  }
+  std::vector<double> ToUnit(const std::vector<double>& v) const {
+    std::vector<double> u(dims.size());
+    for (size_t i = 0; i < dims.size(); ++i) u[i] = (v[i] - dims[i].lo) / (dims[i].hi - dims[i].lo);
+    return u;
+  }
+  bool OutOfBudget() const {
+    return report.evaluations >= options.max_evaluations || SecondsSince(start) >= options.max_seconds;
+  }
+
+  EvaluationOptions Eval(int64_t first, int64_t n) const {
+    return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs};
+  }
+
+  // One evaluation on the common seeds; `exact` evaluates those params as given (the start
+  // point), otherwise they are decoded from `unit`.
+  Result<double> Run(const std::vector<double>& unit, const LayoutParams* exact) {
+    LayoutParams params;
+    if (exact) {
+      params = *exact;
+    } else {
+      Result<LayoutParams> decoded = options.space.Decode(options.start, ToUnits(unit.data()));
+      if (!decoded.ok()) {
+        return decoded.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
+      }
+      params = *std::move(decoded);
+    }
+    Result<Evaluation> e = Evaluate(params, library, Eval(0, layouts));
+    if (!e.ok()) return e.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
+    const double objective = Objective(e->metrics, options.targets);
+    TraceRow row{++report.evaluations, round, phase, ToUnits(unit.data()), e->metrics, objective,
+                 SecondsSince(start), layouts};
+    if (options.on_evaluation) options.on_evaluation(row);
+    report.trace.push_back(std::move(row));
+    if (objective < best_objective) {
+      best_objective = objective;
+      best_unit = unit;
+      report.best = params;
+      report.search_metrics = e->metrics;
+      met = Within(e->metrics, options.targets, options.search_margin);
+    }
+    return objective;
+  }
+
+  static double Callback(unsigned n, const double* x, double* /*gradient*/, void* data) {
+    auto* s = static_cast<Search*>(data);
+    Result<double> f = s->Run(std::vector<double>(x, x + n), nullptr);
+    if (!f.ok()) s->error = f.status();
+    if (!f.ok() || s->met || s->OutOfBudget()) nlopt_force_stop(s->running);
+    return f.ok() ? *f : std::numeric_limits<double>::max();
+  }
+
+  // One NLopt run from the best point; its own evaluation cap is `max_evaluations`.
+  Status Minimize(nlopt_algorithm algorithm, std::string_view name, int max_evaluations, double step_scale) {
+    const unsigned n = static_cast<unsigned>(dims.size());
+    Nlopt opt(nlopt_create(algorithm, n));
+    if (!opt) return InternalError(fmt::format("nlopt: cannot create {} for {} dimension(s)", name, n));
+    const std::vector<double> lower(n, 0.0), upper(n, 1.0);
+    std::vector<double> step(n);
+    for (unsigned i = 0; i < n; ++i) {
+      step[i] = std::clamp(step_scale * dims[i].step / (dims[i].hi - dims[i].lo), 1e-6, 1.0);
+    }
+    nlopt_set_lower_bounds(opt.get(), lower.data());
+    nlopt_set_upper_bounds(opt.get(), upper.data());
+    nlopt_set_min_objective(opt.get(), &Search::Callback, this);
+    nlopt_set_initial_step(opt.get(), step.data());
+    nlopt_set_xtol_abs1(opt.get(), 1e-4);
+    nlopt_set_maxeval(opt.get(), std::max(1, max_evaluations));
+    nlopt_set_maxtime(opt.get(), std::max(1e-3, options.max_seconds - SecondsSince(start)));
+    // NLopt's stochastic algorithms draw from its one global generator.
+    nlopt_srand(options.seed);
+    std::vector<double> x = best_unit;
+    double f = 0;
+    running = opt.get();
+    const nlopt_result result = nlopt_optimize(opt.get(), x.data(), &f);
+    running = nullptr;
+    SOLID_RETURN_IF_ERROR(error);
+    if (result < 0 && result != NLOPT_FORCED_STOP && result != NLOPT_ROUNDOFF_LIMITED) {
+      return InternalError(fmt::format("nlopt {}: {}", name, nlopt_result_to_string(result)));
+    }
+    report.stop_reason = met ? "every target within the search margin on the common seeds"
+                         : report.evaluations >= options.max_evaluations ? "max evaluations"
+                         : SecondsSince(start) >= options.max_seconds     ? "time budget"
+                                                                          : fmt::format("{} converged ({})", name,
+                                                                                        nlopt_result_to_string(result));
+    return Status::Ok();
+  }
+
+  // For the unmet targets: the free dimensions at a bound for which a step inside makes the
+  // metric worse, i.e. the bound is in the way. One probe per dimension at a bound.
+  Status FindBlockers(std::vector<TargetResult>& results) {
+    phase = "probe";
+    for (size_t i = 0; i < dims.size(); ++i) {
+      const bool at_lo = best_unit[i] <= kAtBound, at_hi = best_unit[i] >= 1 - kAtBound;
+      if (!at_lo && !at_hi) continue;
+      std::vector<double> probe = best_unit;
+      probe[i] += at_lo ? kProbeStep : -kProbeStep;
+      const double saved_best = best_objective;
+      best_objective = -1;  // a probe never replaces the best point
+      Result<double> f = Run(probe, nullptr);
+      best_objective = saved_best;
+      SOLID_RETURN_IF_ERROR(f.status());
+      for (TargetResult& t : results) {
+        if (t.met) continue;
+        const double need = t.target.value - t.predicted.mean;
+        const double at_best = MetricOf(report.search_metrics, t.target.metric).mean;
+        const double moved = MetricOf(report.trace.back().metrics, t.target.metric).mean - at_best;
+        if (moved * need >= 0) continue;
+        t.blocked_by.push_back(fmt::format("{} at its {} bound {:g} (a step inside moves {} from {:.4g} to {:.4g})",
+                                           dims[i].name, at_lo ? "lower" : "upper", at_lo ? dims[i].lo : dims[i].hi,
+                                           MetricName(t.target.metric), at_best, at_best + moved));
+      }
+    }
+    return Status::Ok();
+  }
+};
+
+}  // namespace
+
+std::string_view MetricName(Metric metric) {
+  switch (metric) {
+    case Metric::kObjectsPerImage: return "objects_per_image";
+    case Metric::kOcclusion: return "occlusion";
+    case Metric::kSmall: return "small";
+    case Metric::kMedium: return "medium";
+    case Metric::kLarge: return "large";
+  }
+  return "?";
+}
+
+Estimate MetricOf(const ProxyMetrics& m, Metric metric) {
+  switch (metric) {
+    case Metric::kObjectsPerImage: return m.objects_per_image;
+    case Metric::kOcclusion: return m.occlusion;
+    case Metric::kSmall: return m.small;
+    case Metric::kMedium: return m.medium;
+    case Metric::kLarge: return m.large;
+  }
+  return {};
+}
+
+double DefaultTolerance(Metric metric) {
+  switch (metric) {
+    case Metric::kObjectsPerImage: return 0.25;
+    case Metric::kOcclusion: return 0.015;
+    default: return 0.02;
+  }
+}
+
+Result<std::vector<Target>> TableRowTargets(std::string_view row) {
+  std::string names;
+  for (const RowTargets& r : kTable1) {
+    names += (names.empty() ? "" : ", ") + std::string(r.row);
+    if (r.row != row) continue;
+    std::vector<Target> targets;
+    for (size_t i = 0; i < std::size(kMetrics); ++i) {
+      targets.push_back({kMetrics[i], r.values[i], DefaultTolerance(kMetrics[i])});
+    }
+    return targets;
+  }
+  return NotFoundError(fmt::format("unknown Table-1 row \"{}\"; the rows are {}", row, names));
+}
+
+double Objective(const ProxyMetrics& metrics, const std::vector<Target>& targets) {
+  double sum = 0;
+  for (const Target& t : targets) {
+    const double d = (MetricOf(metrics, t.metric).mean - t.value) / t.tolerance;
+    sum += d * d;
+  }
+  return sum;
+}
+
+void DefaultEvaluationResolution(const LayoutParams& params, int* width, int* height) {
+  *width = std::max(16, params.width * 2 / 3);
+  *height = std::max(16, params.height * 2 / 3);
+}
+
+Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::AssetLibrary> library,
+                            const EvaluationOptions& options) {
+  if (options.layouts < 1 || options.first < 0) return InvalidArgumentError("evaluation: layouts must be >= 1");
+  const auto start = Clock::now();
+  LayoutParams at = params;
+  if (options.width > 0) at.width = options.width;
+  if (options.height > 0) at.height = options.height;
+  const double area_scale = static_cast<double>(params.width) * params.height / (static_cast<double>(at.width) * at.height);
+  at.min_visible_pixels = std::max(1, static_cast<int>(std::lround(params.min_visible_pixels / area_scale)));
+  SOLID_ASSIGN_OR_RETURN(std::unique_ptr<render::LayoutSampler> sampler, render::LayoutSampler::Create(at, library));
+
+  struct PerLayout {
+    bool ok = false;
+    std::vector<std::pair<uint64_t, uint64_t>> areas;  // (visible, full) of annotated instances
+  };
+  const int64_t n = options.layouts;
+  std::vector<PerLayout> layouts(static_cast<size_t>(n));
+  std::atomic<int64_t> next{0};
+  std::mutex error_mutex;
+  Status error;
+  auto worker = [&] {
+    for (int64_t i = next++; i < n; i = next++) {
+      Result<render::GeneratedLayout> g = render::GenerateLayout(*sampler, options.seed, options.first + i);
+      if (!g.ok()) {
+        if (g.status().code() == StatusCode::kLimitExceeded) continue;
+        std::lock_guard lock(error_mutex);
+        if (error.ok()) error = g.status();
+        next = n;
+        return;
+      }
+      PerLayout& out = layouts[static_cast<size_t>(i)];
+      out.ok = true;
+      for (const InstanceRecord& r : g->masks.instances) {
+        if (r.visible_area >= static_cast<uint64_t>(at.min_visible_pixels)) out.areas.emplace_back(r.visible_area, r.full_area);
+      }
+    }
+  };
+  const int jobs = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+  SOLID_RETURN_IF_ERROR(error);
+
+  // Merged in index order, so that the result does not depend on the number of jobs.
+  MetricsAccumulator metrics(area_scale);
+  Evaluation e;
+  for (const PerLayout& l : layouts) {
+    if (!l.ok) {
+      ++e.failed_layouts;
+      continue;
+    }
+    metrics.AddImageCounts(static_cast<int64_t>(l.areas.size()), static_cast<int64_t>(l.areas.size()));
+    for (const auto& [visible, full] : l.areas) metrics.AddVisibleInstance(visible, full);
+  }
+  e.metrics = metrics.Finish();
+  e.seconds = SecondsSince(start);
+  return e;
+}
+
+Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, const OptimizeOptions& options) {
+  if (options.targets.empty()) return InvalidArgumentError("optimizer: no targets");
+  for (const Target& t : options.targets) {
+    if (!(t.tolerance > 0)) {
+      return InvalidArgumentError(fmt::format("optimizer: target {}: tolerance must be > 0", MetricName(t.metric)));
+    }
+  }
+  if (options.layouts < 1 || options.confirm_layouts < 1 || options.max_rounds < 1) {
+    return InvalidArgumentError("optimizer: layouts, confirm_layouts and max_rounds must be >= 1");
+  }
+  SOLID_ASSIGN_OR_RETURN(const nlopt_algorithm local, AlgorithmByName(options.algorithm, false));
+  std::optional<nlopt_algorithm> global;
+  if (!options.global_algorithm.empty()) {
+    SOLID_ASSIGN_OR_RETURN(global, AlgorithmByName(options.global_algorithm, true));
+  }
+  SOLID_RETURN_IF_ERROR(render::CheckParams(options.start, "optimizer: start"));
+  Search s{library, options};
+  s.start = Clock::now();
+  SOLID_ASSIGN_OR_RETURN(s.dims, options.space.Dimensions(options.start));
+  if (s.dims.empty()) return InvalidArgumentError("optimizer: no free knob");
+  if (local == NLOPT_LN_BOBYQA && s.dims.size() < 2) {
+    return InvalidArgumentError("optimizer: bobyqa needs at least 2 free dimensions");
+  }
+  OptimizeReport& r = s.report;
+  r.dimensions = s.dims;
+  if (options.eval_width > 0 && options.eval_height > 0) {
+    r.eval_width = options.eval_width;
+    r.eval_height = options.eval_height;
+  } else {
+    DefaultEvaluationResolution(options.start, &r.eval_width, &r.eval_height);
+  }
+  const std::vector<double> start_unit = s.ToUnit(options.space.Encode(options.start));
+  Evaluation confirmation;
+  for (s.round = 0; s.round < options.max_rounds; ++s.round) {
+    r.rounds = s.round + 1;
+    s.layouts = options.layouts << s.round;
+    s.phase = "start";
+    s.best_objective = std::numeric_limits<double>::infinity();
+    // The start itself, exactly: a target it already meets costs no search.
+    if (s.round == 0) {
+      SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start).status());
+    } else {
+      const LayoutParams previous = r.best;
+      SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous).status());
+    }
+    if (s.met) {
+      r.stop_reason = "every target within the search margin on the common seeds";
+    } else if (s.OutOfBudget()) {
+      r.stop_reason = r.evaluations >= options.max_evaluations ? "max evaluations" : "time budget";
+    } else {
+      if (global && s.round == 0) {
+        s.phase = "global";
+        const int budget = options.global_evaluations > 0 ? options.global_evaluations : options.max_evaluations / 3;
+        SOLID_RETURN_IF_ERROR(s.Minimize(*global, options.global_algorithm, budget, 1.0));
+      }
+      if (!s.met && !s.OutOfBudget()) {
+        s.phase = "local";
+        SOLID_RETURN_IF_ERROR(
+            s.Minimize(local, options.algorithm, options.max_evaluations - r.evaluations, std::ldexp(1.0, -s.round)));
+      }
+    }
+    SOLID_ASSIGN_OR_RETURN(confirmation, Evaluate(r.best, library, s.Eval(kConfirmFirst, options.confirm_layouts)));
+    if (Within(confirmation.metrics, options.targets, 1.0) || s.OutOfBudget()) break;
+  }
+  r.confirmation = confirmation.metrics;
+  r.best_x = s.ToUnits(s.best_unit.data());
+  r.all_met = true;
+  for (const Target& t : options.targets) {
+    TargetResult tr;
+    tr.target = t;
+    tr.predicted = MetricOf(r.confirmation, t.metric);
+    tr.met = std::abs(tr.predicted.mean - t.value) <= t.tolerance;
+    r.all_met = r.all_met && tr.met;
+    r.results.push_back(std::move(tr));
+  }
+  if (!r.all_met) SOLID_RETURN_IF_ERROR(s.FindBlockers(r.results));
+  if (options.pilot_layouts > 0) {
+    EvaluationOptions pilot = s.Eval(kPilotFirst, options.pilot_layouts);
+    pilot.width = options.start.width;
+    pilot.height = options.start.height;
+    SOLID_ASSIGN_OR_RETURN(Evaluation p, Evaluate(r.best, library, pilot));
+    r.pilot = p.metrics;
+    for (TargetResult& tr : r.results) {
+      tr.pilot = MetricOf(p.metrics, tr.target.metric);
+      tr.pilot_agrees = std::abs(tr.pilot->mean - tr.predicted.mean) <=
+                        tr.target.tolerance + std::hypot(tr.pilot->ci95, tr.predicted.ci95);
+    }
+  }
+  r.seconds = SecondsSince(s.start);
+  return std::move(s.report);
+}
+
+nlohmann::json OptimizeReport::ToJson() const {
+  auto est = [](const Estimate& e) { return nlohmann::json{{"mean", e.mean}, {"ci95", e.ci95}}; };
+  nlohmann::json targets = nlohmann::json::array();
+  for (const TargetResult& t : results) {
+    nlohmann::json j = {{"metric", MetricName(t.target.metric)},
+                        {"target", t.target.value},
+                        {"tolerance", t.target.tolerance},
+                        {"achieved", est(t.predicted)},
+                        {"met", t.met},
+                        {"blocked_by", t.blocked_by}};
+    if (t.pilot) {
+      j["pilot"] = est(*t.pilot);
+      j["pilot_agrees"] = t.pilot_agrees;
+    }
+    targets.push_back(std::move(j));
+  }
+  nlohmann::json point = nlohmann::json::object();
+  for (size_t i = 0; i < dimensions.size() && i < best_x.size(); ++i) {
+    point[dimensions[i].name] = {{"value", best_x[i]}, {"bounds", {dimensions[i].lo, dimensions[i].hi}}};
+  }
+  nlohmann::json j = {{"targets", targets},
+                      {"all_met", all_met},
+                      {"point", point},
+                      {"search_metrics", search_metrics.ToJson()},
+                      {"confirmation", confirmation.ToJson()},
+                      {"evaluation_resolution", {eval_width, eval_height}},
+                      {"evaluations", evaluations},
+                      {"rounds", rounds},
+                      {"seconds", seconds},
+                      {"stop_reason", stop_reason},
+                      {"params", render::ParamsToJson(best)}};
+  if (pilot) j["pilot"] = pilot->ToJson();
+  return j;
+}
+
+Status WriteTrace(const OptimizeReport& report, const std::filesystem::path& path) {
+  std::string text;
+  if (path.extension() == ".csv") {
+    text = "evaluation,round,phase,seconds,layouts,objective,objects_per_image,occlusion,small,medium,large";
+    for (const Dimension& d : report.dimensions) text += "," + d.name;
+    text += '\n';
+    for (const TraceRow& t : report.trace) {
+      const ProxyMetrics& m = t.metrics;
+      text += fmt::format("{},{},{},{:.3f},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}", t.evaluation, t.round,
+                          t.phase, t.seconds, t.layouts, t.objective, m.objects_per_image.mean, m.occlusion.mean,
+                          m.small.mean, m.medium.mean, m.large.mean);
+      for (double v : t.x) text += fmt::format(",{:.9g}", v);
+      text += '\n';
+    }
+  } else {
+    nlohmann::json rows = nlohmann::json::array();
+    for (const TraceRow& t : report.trace) {
+      nlohmann::json x = nlohmann::json::object();
+      for (size_t i = 0; i < report.dimensions.size() && i < t.x.size(); ++i) x[report.dimensions[i].name] = t.x[i];
+      rows.push_back({{"evaluation", t.evaluation},
+                      {"round", t.round},
+                      {"phase", t.phase},
+                      {"seconds", t.seconds},
+                      {"layouts", t.layouts},
+                      {"objective", t.objective},
+                      {"metrics", t.metrics.ToJson()},
+                      {"point", x}});
+    }
+    text = rows.dump(1) + "\n";
+  }
+  return files::WriteFileAtomically(
+      path, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text.data()), text.size()));
+}
+
+Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root) {
+  SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(dataset_root));
+  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(dataset_root));
+  MetricsAccumulator metrics;
+  for (const ShardFile& file : listing.targets) {
+    SOLID_ASSIGN_OR_RETURN(ShardReader shard, ShardReader::Open(file.path));
+    SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, shard.ImageIds());
+    for (int64_t id : ids) {
+      SOLID_ASSIGN_OR_RETURN(std::vector<InstanceRecord> instances, shard.InstancesOfImage(id));
+      int64_t visible = 0;
+      for (const InstanceRecord& in : instances) {
+        const std::string where = fmt::format("{}: image {} instance {}", file.path.string(), id, in.ordinal);
+        Result<rle::Rle> v = rle::FromString(in.visible_rle, manifest.height, manifest.width);
+        if (!v.ok()) return v.status().WithContext(where + " visible mask");
+        Result<rle::Rle> f = rle::FromString(in.full_rle, manifest.height, manifest.width);
+        if (!f.ok()) return f.status().WithContext(where + " full mask");
+        const uint64_t visible_area = rle::Area(*v);
+        if (visible_area == 0) continue;
+        ++visible;
+        metrics.AddVisibleInstance(visible_area, rle::Area(*f));
+      }
+      metrics.AddImageCounts(static_cast<int64_t>(instances.size()), visible);
+    }
+  }
+  return metrics.Finish();
+}
+
+std::vector<Comparison> CompareWithTargets(const ProxyMetrics& measured, const std::vector<Target>& targets) {
+  std::vector<Comparison> out;
+  for (const Target& t : targets) {
+    const Estimate m = MetricOf(measured, t.metric);
+    out.push_back({t.metric, m, {t.value, 0}, t.tolerance, std::abs(m.mean - t.value) <= t.tolerance});
+  }
+  return out;
+}
+
+std::vector<Comparison> CompareWithPrediction(const ProxyMetrics& measured, const ProxyMetrics& predicted) {
+  std::vector<Comparison> out;
+  for (Metric metric : kMetrics) {
+    const Estimate m = MetricOf(measured, metric), p = MetricOf(predicted, metric);
+    const double tolerance = DefaultTolerance(metric);
+    out.push_back({metric, m, p, tolerance, std::abs(m.mean - p.mean) <= tolerance + std::hypot(m.ci95, p.ci95)});
+  }
+  return out;
+}
+
+}  // namespace solid::optimize
