@@ -71,20 +71,10 @@ RenderedImage RenderImage(const LayoutSampler& sampler, const RenderOptions& opt
   const Layout& layout = generated->layout;
 
   auto start = Clock::now();
-  Result<LightRig> lights = SampleLights(layout);
-  if (!lights.ok()) {
-    // No light position in the room (kLimitExceeded): as an unusable layout.
-    if (lights.status().code() == StatusCode::kLimitExceeded) {
-      out.failure = fmt::format("image {}: {}", image_id, lights.status().message());
-    } else {
-      out.error = lights.status().WithContext(fmt::format("image {}", image_id));
-    }
-    return out;
-  }
-  out.lights = lights->ToJson();
+  out.lights = generated->lights.ToJson();
   ShadeOptions shading = options.shading;
   shading.threads = 1;  // images run in parallel instead
-  Result<ShadeResult> shaded = Shade(layout, *lights, shading, textures);
+  Result<ShadeResult> shaded = Shade(layout, generated->lights, shading, textures);
   out.stages.shading = MillisecondsSince(start);
   if (!shaded.ok()) {
     out.error = shaded.status().WithContext(fmt::format("image {}", image_id));

@@ -44,6 +44,15 @@ Result<GeneratedLayout> GenerateLayout(const LayoutSampler& sampler, uint64_t da
       continue;
     }
     start = std::chrono::steady_clock::now();
+    Result<LightRig> lights = SampleLights(g.layout);
+    g.sample_ms += MillisecondsSince(start);
+    if (!lights.ok()) {
+      if (lights.status().code() != StatusCode::kLimitExceeded) return lights.status();
+      reasons.push_back(lights.status().message());
+      continue;
+    }
+    g.lights = *lights;
+    start = std::chrono::steady_clock::now();
     SOLID_ASSIGN_OR_RETURN(g.masks, RunMaskPass(g.layout, p.min_visible_pixels, options));
     g.mask_ms += MillisecondsSince(start);
     if (g.masks.visible_objects > 0) return g;

@@ -13,14 +13,18 @@
 #include "solid/formats/progress.h"
 #include "solid/render/layout.h"
 #include "solid/render/mask_pass.h"
+#include "solid/render/shade.h"
 
 namespace solid::render {
 
-// A usable layout of image `index` with its mask pass: the first restart whose layout
-// places an object and shows at least one with min_visible_pixels visible pixels
-// (solid-method.md 2: an empty image restarts the scene; D9: a bounded budget).
+// A usable layout of image `index` with its lights and mask pass: the first restart whose
+// layout places an object, finds a position for each light, and shows at least one object
+// with min_visible_pixels visible pixels (solid-method.md 2 and 2.6: an empty image or an
+// unlit room restarts the scene; D9: a bounded budget). `solid sample` and `solid render`
+// draw the same layouts.
 struct GeneratedLayout {
   Layout layout;
+  LightRig lights;
   MaskPassResult masks;
   double sample_ms = 0, mask_ms = 0;  // summed over restarts
 };
