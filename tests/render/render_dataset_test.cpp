@@ -11,6 +11,7 @@
 #include "render/test_assets.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/files.h"
+#include "solid/formats/image_codec.h"
 #include "solid/formats/index.h"
 #include "solid/formats/metrics.h"
 #include "solid/formats/validate.h"
@@ -89,6 +90,29 @@ TEST(RenderDataset, ValidatesAndAgreesWithSample) {
     }
     return Status::Ok();
   }));
+}
+
+TEST(RenderDataset, JpegAndWebpImagesWithDepthDecodeToTheirSize) {
+  TempDir dir;
+  const auto sampler = SmallSampler();
+  for (ImageFormat format : {ImageFormat::kJpeg, ImageFormat::kWebp}) {
+    const fs::path out = dir.path() / std::string(ImageFormatName(format));
+    RenderOptions options = SmallRender(out, 3, 4, 2);
+    options.format = format;
+    options.quality = 80;
+    options.depth = true;
+    options.queries = false;
+    ASSERT_OK(RenderDataset(*sampler, options).status());
+    const ValidationReport validation = ValidateDataset(out);  // decodes every image and depth map
+    EXPECT_TRUE(validation.ok()) << validation.ToJson().dump(2);
+    Dataset dataset = Dataset::Open(out).value();
+    const ImageRecord image = dataset.ReadImage(0).value();
+    EXPECT_EQ(image.format, format);
+    ASSERT_TRUE(image.depth_exr.has_value());
+    const DepthImage depth = DecodeDepthExr(*image.depth_exr).value();
+    EXPECT_EQ(depth.width, 96u);
+    EXPECT_EQ(depth.height, 72u);
+  }
 }
 
 TEST(RenderDataset, SameDataForAnyShardSizeAndThreadCount) {
