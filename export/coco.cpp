@@ -96,8 +96,12 @@ Status WriteBytes(const fs::path& path, const std::vector<uint8_t>& bytes) {
 Status LinkImage(const fs::path& from, const fs::path& to, const ImageRecord& image, const fs::path& shard) {
   std::error_code ec;
   if (fs::equivalent(from, to, ec)) return Status::Ok();
-  SOLID_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, files::ReadFile(from, image.image.size() + 1));
-  if (bytes != image.image) {
+  const uintmax_t size = fs::file_size(from, ec);
+  if (ec) return NotFoundError(fmt::format("{}: {} (--link-from must be an export of this dataset)", from.string(), ec.message()));
+  Result<std::vector<uint8_t>> bytes =
+      size == image.image.size() ? files::ReadFile(from, size) : Result<std::vector<uint8_t>>(std::vector<uint8_t>{});
+  if (!bytes.ok()) return bytes.status();
+  if (*bytes != image.image) {
     return CorruptError(fmt::format("{}: differs from image {} of {}: --link-from must be an export of this dataset",
                                     from.string(), image.image_id, shard.string()));
   }

@@ -140,7 +140,7 @@ std::string Format(Metric m, double v) {
 // A bar chart: one bar per label, the count above it.
 std::string BarChart(std::string_view title, std::string_view x_label, const std::vector<std::string>& labels,
                      const std::vector<int64_t>& counts) {
-  constexpr double kW = 360, kH = 220, kLeft = 40, kBottom = 40, kTop = 28;
+  constexpr double kW = 340, kH = 220, kLeft = 20, kBottom = 40, kTop = 28;
   const int64_t peak = std::max<int64_t>(1, *std::max_element(counts.begin(), counts.end()));
   const double slot = (kW - kLeft - 10) / static_cast<double>(counts.size());
   std::string svg = fmt::format(
@@ -184,7 +184,7 @@ std::string Viridis(double t) {
 }
 
 std::string HeatMap(const Stats& s) {
-  constexpr double kCell = 16, kLeft = 48, kTop = 30;
+  constexpr double kCell = 16, kLeft = 64, kTop = 30;
   constexpr double kW = kLeft + kAzimuthBins * kCell + 70, kH = kTop + kElevationBins * kCell + 44;
   int64_t peak = 1;
   for (const auto& row : s.views) peak = std::max(peak, *std::max_element(row.begin(), row.end()));
@@ -215,7 +215,7 @@ std::string HeatMap(const Stats& s) {
   }
   svg += fmt::format("<text x=\"{}\" y=\"{}\" class=\"label\">azimuth</text>", kLeft + kAzimuthBins * kCell / 2,
                      kH - 8);
-  svg += fmt::format("<text x=\"14\" y=\"{}\" class=\"label\" transform=\"rotate(-90 14 {})\">elevation</text>",
+  svg += fmt::format("<text x=\"16\" y=\"{}\" class=\"label\" transform=\"rotate(-90 16 {})\">elevation</text>",
                      kTop + kElevationBins * kCell / 2, kTop + kElevationBins * kCell / 2);
   const double bar_x = kLeft + kAzimuthBins * kCell + 16;
   for (int i = 0; i < 32; ++i) {
