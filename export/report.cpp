@@ -294,8 +294,12 @@ Result<std::string> SampleCard(Dataset& dataset, int64_t image_id, int query_mod
   std::sort(visible.begin(), visible.end(),
             [](const InstanceRecord& a, const InstanceRecord& b) { return a.visible_area > b.visible_area; });
   int shown = 0;
+  std::vector<std::string_view> models;
   for (const InstanceRecord& in : visible) {
     if (shown == query_models) break;
+    // One view per model: an image may hold several copies of one.
+    if (std::find(models.begin(), models.end(), in.model_key) != models.end()) continue;
+    models.push_back(in.model_key);
     SOLID_ASSIGN_OR_RETURN(std::vector<QueryViewRecord> views, dataset.QueryViews(in.model_key));
     if (views.empty()) continue;
     ++shown;
@@ -304,7 +308,8 @@ Result<std::string> SampleCard(Dataset& dataset, int64_t image_id, int query_mod
         "<figure class=\"query\"><img src=\"{}\" alt=\"query view of {}\" style=\"border-color:{}\">"
         "<figcaption title=\"{}\">{}</figcaption></figure>",
         DataUri(view.format, view.image), Escape(in.model_key),
-        Hex(kPalette[static_cast<size_t>(in.ordinal) % kPalette.size()]), Escape(in.model_key), Escape(in.model_key));
+        Hex(kPalette[static_cast<size_t>(in.ordinal) % kPalette.size()]), Escape(in.model_key),
+        Escape(in.model_key.substr(in.model_key.rfind('/') + 1)));
   }
   if (shown == 0) card += "<p class=\"muted\">no query views stored for these objects</p>";
   return card + "</div></div>";

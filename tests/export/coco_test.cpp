@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <functional>
 #include <set>
 
 #include "fixtures/layered_dataset.h"
@@ -35,17 +36,47 @@ rle::Rle ReadSegmentation(const nlohmann::json& seg, const Manifest& m) {
 
 std::vector<int64_t> Box(const rle::Box& b) { return {b.x, b.y, b.w, b.h}; }
 
+// Small crowded images.
+Status WriteCrowded(const fs::path& root) {
+  fixtures::LayeredDatasetOptions o;
+  o.images = 10;
+  o.shard_size = 4;
+  o.width = 64;
+  o.height = 48;
+  o.max_objects = 12;
+  return fixtures::WriteLayeredDataset(root, o);
+}
+
+// Two layered images plus, in image 1, a copy of its first object hidden entirely behind it.
+Status WriteWithHiddenObject(const fs::path& root) {
+  fixtures::LayeredDatasetOptions o;
+  o.images = 2;
+  o.shard_size = 2;
+  o.queries = false;
+  SOLID_RETURN_IF_ERROR(CreateDataset(root, fixtures::LayeredManifest(o)));
+  SOLID_ASSIGN_OR_RETURN(ShardWriter shard, ShardWriter::Create(DatasetPaths(root).shard(0)));
+  for (int64_t id = 0; id < 2; ++id) {
+    SOLID_ASSIGN_OR_RETURN(fixtures::LayeredImage image, fixtures::MakeLayeredImage(o, id));
+    SOLID_RETURN_IF_ERROR(shard.AddImage(image.image));
+    for (const InstanceRecord& in : image.instances) SOLID_RETURN_IF_ERROR(shard.AddInstance(in));
+    if (id == 0) continue;
+    const InstanceRecord& front = image.instances.front();
+    InstanceRecord hidden = front;
+    hidden.ordinal = static_cast<int32_t>(image.instances.size());
+    SOLID_ASSIGN_OR_RETURN(rle::Rle behind, rle::FromString(front.visible_rle, o.height, o.width));
+    SOLID_RETURN_IF_ERROR(SetInstanceMasks(rle::FromBox({}, o.height, o.width), behind, &hidden));
+    SOLID_RETURN_IF_ERROR(shard.AddInstance(hidden));
+  }
+  return shard.Commit();
+}
+
 struct Exported {
   TempDir dir;
   fs::path dataset = dir.path() / "dataset", out = dir.path() / "coco";
-  fixtures::LayeredDatasetOptions layered;
   nlohmann::json json;
 
-  explicit Exported(CocoExportOptions options) {
-    layered.images = 10;
-    layered.shard_size = 4;
-    layered.max_objects = 8;
-    EXPECT_OK(fixtures::WriteLayeredDataset(dataset, layered));
+  explicit Exported(CocoExportOptions options, const std::function<Status(const fs::path&)>& write = WriteCrowded) {
+    EXPECT_OK(write(dataset));
     options.dataset = dataset;
     options.out_dir = out;
     Result<CocoExportReport> r = ExportCoco(options);
@@ -124,13 +155,13 @@ TEST(ExportCoco, BothMasksMatchTheShards) {
 TEST(ExportCoco, VisibleMasksSkipHiddenObjectsAndFullMasksKeepThem) {
   CocoExportOptions o;
   o.masks = CocoMasks::kVisible;
-  Exported visible(o);
+  Exported visible(o, WriteWithHiddenObject);
   CheckAgainstDataset(visible, CocoMasks::kVisible);
   o.masks = CocoMasks::kFull;
-  Exported full(o);
+  Exported full(o, WriteWithHiddenObject);
   CheckAgainstDataset(full, CocoMasks::kFull);
-  EXPECT_GT(full.json["annotations"].size(), visible.json["annotations"].size())
-      << "the fixture should hide some objects entirely";
+  EXPECT_EQ(full.json["annotations"].size(), visible.json["annotations"].size() + 1);
+  EXPECT_EQ(full.json["annotations"].back()["visible_area"], 0);
 }
 
 TEST(ExportCoco, PerModelCategoriesNameTheModels) {
