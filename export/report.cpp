@@ -245,14 +245,14 @@ void DrawMask(Image8& image, const std::vector<uint8_t>& mask, const rle::Box& b
       set(x, y, edge ? 1.0 : 0.45);
     }
   }
-  if (box.w == 0) return;
-  for (int64_t x = box.x; x < box.x + box.w; ++x) {
-    set(static_cast<uint32_t>(x), static_cast<uint32_t>(box.y), 1);
-    set(static_cast<uint32_t>(x), static_cast<uint32_t>(box.y + box.h - 1), 1);
-  }
+  // Lines about one pixel wide as the page shows the image (a third of its width or less).
+  const int64_t thickness = std::max<int64_t>(1, w / 256);
   for (int64_t y = box.y; y < box.y + box.h; ++y) {
-    set(static_cast<uint32_t>(box.x), static_cast<uint32_t>(y), 1);
-    set(static_cast<uint32_t>(box.x + box.w - 1), static_cast<uint32_t>(y), 1);
+    for (int64_t x = box.x; x < box.x + box.w; ++x) {
+      const bool border = x - box.x < thickness || box.x + box.w - 1 - x < thickness || y - box.y < thickness ||
+                          box.y + box.h - 1 - y < thickness;
+      if (border) set(static_cast<uint32_t>(x), static_cast<uint32_t>(y), 1);
+    }
   }
 }
 
