@@ -1,6 +1,5 @@
 #include <fmt/format.h>
 
-#include <map>
 
 #include "commands.h"
 #include "exit_codes.h"
@@ -9,6 +8,14 @@
 #include "solid/export/report.h"
 
 namespace solid::cli {
+namespace {
+
+// Checked against their lists by CLI11 before the command runs.
+struct CocoFlags {
+  std::string masks = "both", categories = "object", images = "copy";
+};
+
+}  // namespace
 
 Command AddExport(CLI::App& app) {
   auto* cmd = app.add_subcommand("export", "Export a dataset to another format.");
@@ -16,26 +23,27 @@ Command AddExport(CLI::App& app) {
   auto* coco = cmd->add_subcommand(
       "coco", "COCO instances: OUT_DIR/annotations.json (compressed RLE masks) and OUT_DIR/images/.");
   auto o = std::make_shared<exporters::CocoExportOptions>();
+  auto f = std::make_shared<CocoFlags>();
   coco->add_option("dataset", o->dataset, "Dataset directory")->required();
   coco->add_option("out_dir", o->out_dir, "Output directory")->required();
-  coco->add_option("--masks", o->masks,
+  coco->add_option("--masks", f->masks,
                    "Mask of segmentation/area/bbox: visible, full (amodal, keeps hidden objects), or both "
                    "(visible, plus full_segmentation)")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, exporters::CocoMasks>{
-          {"visible", exporters::CocoMasks::kVisible},
-          {"full", exporters::CocoMasks::kFull},
-          {"both", exporters::CocoMasks::kBoth}}))
-      ->default_str("both");
-  coco->add_option("--categories", o->categories, "object: one category; model: one per model")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, exporters::CocoCategories>{
-          {"object", exporters::CocoCategories::kObject}, {"model", exporters::CocoCategories::kModel}}))
-      ->default_str("object");
-  coco->add_option("--images", o->images, "copy: write the image files; link: hard-link them from --link-from")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, exporters::CocoImages>{
-          {"copy", exporters::CocoImages::kCopy}, {"link", exporters::CocoImages::kLink}}))
-      ->default_str("copy");
+      ->check(CLI::IsMember({"visible", "full", "both"}))
+      ->capture_default_str();
+  coco->add_option("--categories", f->categories, "object: one category; model: one per model")
+      ->check(CLI::IsMember({"object", "model"}))
+      ->capture_default_str();
+  coco->add_option("--images", f->images, "copy: write the image files; link: hard-link them from --link-from")
+      ->check(CLI::IsMember({"copy", "link"}))
+      ->capture_default_str();
   coco->add_option("--link-from", o->link_from, "An earlier COCO export of the same dataset, for --images link");
-  return [o]() -> int {
+  return [o, f]() -> int {
+    o->masks = f->masks == "visible" ? exporters::CocoMasks::kVisible
+               : f->masks == "full"  ? exporters::CocoMasks::kFull
+                                     : exporters::CocoMasks::kBoth;
+    o->categories = f->categories == "model" ? exporters::CocoCategories::kModel : exporters::CocoCategories::kObject;
+    o->images = f->images == "link" ? exporters::CocoImages::kLink : exporters::CocoImages::kCopy;
     Result<exporters::CocoExportReport> result = [&] {
       ProgressLine line("export", "images");
       o->progress = line.Callback();
