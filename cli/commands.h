@@ -25,6 +25,8 @@ Command AddSample(CLI::App& app);
 Command AddRender(CLI::App& app);
 Command AddOptimize(CLI::App& app);
 Command AddMetrics(CLI::App& app);
+Command AddExport(CLI::App& app);
+Command AddReport(CLI::App& app);
 
 // "WIDTHxHEIGHT", each 16..8192; errors name `flag`.
 Result<std::pair<int, int>> ParseResolution(std::string_view flag, const std::string& text);

@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::map<CLI::App*, solid::cli::Command> commands;
   for (auto add : {solid::cli::AddConvert, solid::cli::AddSample, solid::cli::AddOptimize, solid::cli::AddRender,
-                    solid::cli::AddMetrics, solid::cli::AddInspect,
+                    solid::cli::AddMetrics, solid::cli::AddExport, solid::cli::AddReport, solid::cli::AddInspect,
                     solid::cli::AddValidate, solid::cli::AddIndex}) {
     solid::cli::Command run = add(app);
     commands[app.get_subcommands({}).back()] = std::move(run);

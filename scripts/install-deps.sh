@@ -14,6 +14,8 @@ packages=(
   libnlopt-cxx-dev libtbb-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite assimp-testmodels bc
+  # headless browser of the report test (tests/export/report_test.cpp)
+  chromium
 )
 
 # Optional tools (fuzzing with clang and libFuzzer): installed with --fuzz.

@@ -1,4 +1,5 @@
-// Encodes a mask with the installed library and checks pycocotools' string for it.
+// Encodes a mask with the installed library and checks pycocotools' string for it; links solid::export.
+#include <solid/export/coco.h>
 #include <solid/formats/rle.h>
 
 #include <cstdio>
@@ -11,6 +12,14 @@ int main() {
   std::string counts = solid::rle::ToString(solid::rle::EncodeRowMajor(mask, 5, 5));
   if (counts != "`018") {
     std::fprintf(stderr, "consumer: got '%s', expected '`018'\n", counts.c_str());
+    return 1;
+  }
+  // solid::export links (with the render and optimize libraries it needs) and reports a missing dataset.
+  solid::exporters::CocoExportOptions options;
+  options.dataset = "no-such-dataset";
+  options.out_dir = "coco-out";
+  if (solid::exporters::ExportCoco(options).ok()) {
+    std::fprintf(stderr, "consumer: exporting a missing dataset succeeded\n");
     return 1;
   }
   std::printf("consumer: ok\n");

@@ -1,0 +1,83 @@
+#include <fmt/format.h>
+
+
+#include "commands.h"
+#include "exit_codes.h"
+#include "progress.h"
+#include "solid/export/coco.h"
+#include "solid/export/report.h"
+
+namespace solid::cli {
+namespace {
+
+// Checked against their lists by CLI11 before the command runs.
+struct CocoFlags {
+  std::string masks = "both", categories = "object", images = "copy";
+};
+
+}  // namespace
+
+Command AddExport(CLI::App& app) {
+  auto* cmd = app.add_subcommand("export", "Export a dataset to another format.");
+  cmd->require_subcommand(1);
+  auto* coco = cmd->add_subcommand(
+      "coco", "COCO instances: OUT_DIR/annotations.json (compressed RLE masks) and OUT_DIR/images/.");
+  auto o = std::make_shared<exporters::CocoExportOptions>();
+  auto f = std::make_shared<CocoFlags>();
+  coco->add_option("dataset", o->dataset, "Dataset directory")->required();
+  coco->add_option("out_dir", o->out_dir, "Output directory")->required();
+  coco->add_option("--masks", f->masks,
+                   "Mask of segmentation/area/bbox: visible, full (amodal, keeps hidden objects), or both "
+                   "(visible, plus full_segmentation)")
+      ->check(CLI::IsMember({"visible", "full", "both"}))
+      ->capture_default_str();
+  coco->add_option("--categories", f->categories, "object: one category; model: one per model")
+      ->check(CLI::IsMember({"object", "model"}))
+      ->capture_default_str();
+  coco->add_option("--images", f->images, "copy: write the image files; link: hard-link them from --link-from")
+      ->check(CLI::IsMember({"copy", "link"}))
+      ->capture_default_str();
+  coco->add_option("--link-from", o->link_from, "An earlier COCO export of the same dataset, for --images link");
+  return [o, f]() -> int {
+    o->masks = f->masks == "visible" ? exporters::CocoMasks::kVisible
+               : f->masks == "full"  ? exporters::CocoMasks::kFull
+                                     : exporters::CocoMasks::kBoth;
+    o->categories = f->categories == "model" ? exporters::CocoCategories::kModel : exporters::CocoCategories::kObject;
+    o->images = f->images == "link" ? exporters::CocoImages::kLink : exporters::CocoImages::kCopy;
+    Result<exporters::CocoExportReport> result = [&] {
+      ProgressLine line("export", "images");
+      o->progress = line.Callback();
+      return exporters::ExportCoco(*o);
+    }();
+    SOLID_ASSIGN_OR_RETURN_EXIT(exporters::CocoExportReport r, std::move(result));
+    fmt::print("{}: {} images, {} annotations in {} categor{} ({} instances with an empty mask skipped), "
+               "{:.1f} MB of images, {:.2f} s\n",
+               (o->out_dir / "annotations.json").string(), r.images, r.annotations, r.categories,
+               r.categories == 1 ? "y" : "ies", r.skipped_invisible, r.image_bytes / 1e6, r.seconds);
+    return kExitOk;
+  };
+}
+
+Command AddReport(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "report", "One self-contained HTML page: manifest, proxy metrics against targets, histograms, viewpoints, "
+                "sample images with mask overlays and query views.");
+  auto o = std::make_shared<exporters::ReportOptions>();
+  cmd->add_option("dataset", o->dataset, "Dataset directory")->required();
+  cmd->add_option("out", o->out, "The .html file to write")->required();
+  cmd->add_option("--target-row", o->target_row,
+                  "Compare with this Table-1 row (a preset name), or none; default: the preset the dataset's "
+                  "params equal, if any");
+  cmd->add_option("--samples", o->samples, "Sample images shown")->capture_default_str()->check(CLI::Range(0, 1000));
+  cmd->add_option("--query-models", o->query_models, "Query views shown per sample")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 64));
+  return [o]() -> int {
+    SOLID_ASSIGN_OR_RETURN_EXIT(exporters::ReportSummary r, exporters::WriteReport(*o));
+    fmt::print("{}: {} images, {} instances, {} samples, {}, {:.1f} MB\n", o->out.string(), r.images, r.instances,
+               r.samples, r.target_row.empty() ? "no targets" : "targets of " + r.target_row, r.bytes / 1e6);
+    return kExitOk;
+  };
+}
+
+}  // namespace solid::cli

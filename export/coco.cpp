@@ -1,0 +1,227 @@
+#include "solid/export/coco.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <system_error>
+#include <utility>
+
+#include "solid/formats/dataset.h"
+#include "solid/formats/files.h"
+
+namespace solid::exporters {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string_view Extension(ImageFormat f) {
+  switch (f) {
+    case ImageFormat::kPng: return "png";
+    case ImageFormat::kJpeg: return "jpg";
+    case ImageFormat::kWebp: return "webp";
+  }
+  return "bin";
+}
+
+nlohmann::json BoxJson(const rle::Box& b) { return nlohmann::json::array({b.x, b.y, b.w, b.h}); }
+
+// annotations.json, written through a buffer into a temporary sibling; Publish renames
+// it into place. Destroyed unpublished, it removes the temporary.
+class JsonStream {
+ public:
+  static Result<JsonStream> Open(const fs::path& final_path) {
+    JsonStream s;
+    s.final_ = final_path;
+    s.temp_ = files::TempPathFor(final_path);
+    s.file_.reset(std::fopen(s.temp_.c_str(), "wb"));
+    if (!s.file_) return IoError(fmt::format("{}: cannot create: {}", s.temp_.string(), std::strerror(errno)));
+    return s;
+  }
+  JsonStream(JsonStream&& o) noexcept
+      : final_(std::move(o.final_)), temp_(std::exchange(o.temp_, {})), file_(std::move(o.file_)),
+        buffer_(std::move(o.buffer_)), published_(o.published_) {}
+  ~JsonStream() {
+    file_.reset();
+    std::error_code ec;
+    if (!published_ && !temp_.empty()) fs::remove(temp_, ec);
+  }
+
+  Status Write(std::string_view text) {
+    buffer_ += text;
+    return buffer_.size() >= (1 << 20) ? Flush() : Status::Ok();
+  }
+  Status Publish() {
+    SOLID_RETURN_IF_ERROR(Flush());
+    if (std::fclose(file_.release()) != 0) return IoError(fmt::format("{}: close failed", temp_.string()));
+    SOLID_RETURN_IF_ERROR(files::SyncFile(temp_));
+    SOLID_RETURN_IF_ERROR(files::Publish(temp_, final_, /*replace=*/true));
+    published_ = true;
+    return Status::Ok();
+  }
+
+ private:
+  struct Closer {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+  };
+  JsonStream() = default;
+  Status Flush() {
+    if (!buffer_.empty() && std::fwrite(buffer_.data(), 1, buffer_.size(), file_.get()) != buffer_.size()) {
+      return IoError(fmt::format("{}: write failed: {}", temp_.string(), std::strerror(errno)));
+    }
+    buffer_.clear();
+    return Status::Ok();
+  }
+  fs::path final_, temp_;
+  std::unique_ptr<std::FILE, Closer> file_;
+  std::string buffer_;
+  bool published_ = false;
+};
+
+Status WriteBytes(const fs::path& path, const std::vector<uint8_t>& bytes) {
+  // Removed first: the old file may be a hard link into another export.
+  std::error_code ec;
+  fs::remove(path, ec);
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), std::fclose);
+  if (!f || std::fwrite(bytes.data(), 1, bytes.size(), f.get()) != bytes.size() || std::fclose(f.release()) != 0) {
+    return IoError(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
+  }
+  return Status::Ok();
+}
+
+Status LinkImage(const fs::path& from, const fs::path& to, const ImageRecord& image, const fs::path& shard) {
+  std::error_code ec;
+  if (fs::equivalent(from, to, ec)) return Status::Ok();
+  const uintmax_t size = fs::file_size(from, ec);
+  if (ec) return NotFoundError(fmt::format("{}: {} (--link-from must be an export of this dataset)", from.string(), ec.message()));
+  Result<std::vector<uint8_t>> bytes =
+      size == image.image.size() ? files::ReadFile(from, size) : Result<std::vector<uint8_t>>(std::vector<uint8_t>{});
+  if (!bytes.ok()) return bytes.status();
+  if (*bytes != image.image) {
+    return CorruptError(fmt::format("{}: differs from image {} of {}: --link-from must be an export of this dataset",
+                                    from.string(), image.image_id, shard.string()));
+  }
+  fs::remove(to, ec);
+  fs::create_hard_link(from, to, ec);
+  if (ec) return IoError(fmt::format("{}: cannot hard-link to {}: {}", to.string(), from.string(), ec.message()));
+  return Status::Ok();
+}
+
+nlohmann::json Annotation(const InstanceRecord& in, int64_t id, int64_t category, const Manifest& m, CocoMasks masks) {
+  const nlohmann::json size = nlohmann::json::array({m.height, m.width});
+  const bool full = masks == CocoMasks::kFull;
+  nlohmann::json a = {
+      {"id", id},
+      {"image_id", in.image_id},
+      {"category_id", category},
+      {"segmentation", {{"size", size}, {"counts", full ? in.full_rle : in.visible_rle}}},
+      {"area", full ? in.full_area : in.visible_area},
+      {"bbox", BoxJson(full ? in.full_box : in.visible_box)},
+      {"iscrowd", 0},
+      {"model_key", in.model_key},
+      {"occlusion", in.occlusion ? nlohmann::json(*in.occlusion) : nlohmann::json()},
+      {"truncation", in.truncation},
+  };
+  if (full) {
+    a["visible_bbox"] = BoxJson(in.visible_box);
+    a["visible_area"] = in.visible_area;
+  } else {
+    a["full_bbox"] = BoxJson(in.full_box);
+    a["full_area"] = in.full_area;
+  }
+  if (masks == CocoMasks::kBoth) a["full_segmentation"] = {{"size", size}, {"counts", in.full_rle}};
+  return a;
+}
+
+}  // namespace
+
+Result<CocoExportReport> ExportCoco(const CocoExportOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  if (options.images == CocoImages::kLink && options.link_from.empty()) {
+    return InvalidArgumentError(
+        "--images link: the images live inside the shards, so there is nothing to link to but an earlier export: "
+        "give --link-from DIR (or use --images copy)");
+  }
+  SOLID_ASSIGN_OR_RETURN(Dataset dataset, Dataset::Open(options.dataset));
+  const Manifest& manifest = dataset.manifest();
+  const fs::path images_dir = options.out_dir / "images";
+  std::error_code ec;
+  fs::create_directories(images_dir, ec);
+  if (ec) return IoError(fmt::format("{}: cannot create: {}", images_dir.string(), ec.message()));
+  SOLID_ASSIGN_OR_RETURN(JsonStream out, JsonStream::Open(options.out_dir / "annotations.json"));
+
+  const nlohmann::json info = {{"description", fmt::format("solid dataset {}", options.dataset.string())},
+                               {"version", manifest.generator_version},
+                               {"solid_seed", manifest.seed},
+                               {"solid_params_hash", fmt::format("{:016x}", manifest.ParamsHash())}};
+  SOLID_RETURN_IF_ERROR(out.Write(fmt::format("{{\"info\": {},\n\"licenses\": [],\n\"images\": [", info.dump())));
+
+  CocoExportReport report;
+  // Pass 1, images: the shards are read in id order, one image at a time.
+  for (const ShardFile& file : dataset.shards().targets) {
+    SOLID_ASSIGN_OR_RETURN(ShardReader * shard, dataset.Shard(file.index));
+    SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, shard->ImageIds());
+    for (int64_t id : ids) {
+      SOLID_ASSIGN_OR_RETURN(ImageRecord image, shard->ReadImage(id));
+      // Annotations take the mask size from the manifest (pass 2 does not read images).
+      if (image.width != manifest.width || image.height != manifest.height) {
+        return CorruptError(fmt::format("{}: image {} is {}x{}, the manifest says {}x{}", file.path.string(), id,
+                                        image.width, image.height, manifest.width, manifest.height));
+      }
+      const std::string name = fmt::format("{:012d}.{}", id, Extension(image.format));
+      if (options.images == CocoImages::kLink) {
+        SOLID_RETURN_IF_ERROR(LinkImage(options.link_from / "images" / name, images_dir / name, image, file.path));
+      } else {
+        SOLID_RETURN_IF_ERROR(WriteBytes(images_dir / name, image.image));
+      }
+      const nlohmann::json entry = {{"id", id}, {"file_name", name}, {"width", image.width}, {"height", image.height}};
+      SOLID_RETURN_IF_ERROR(out.Write(fmt::format("{}\n{}", report.images == 0 ? "" : ",", entry.dump())));
+      ++report.images;
+      report.image_bytes += static_cast<int64_t>(image.image.size());
+      if (options.progress) options.progress(report.images, manifest.images);
+    }
+  }
+
+  // Pass 2, annotations: streamed without image blobs.
+  SOLID_RETURN_IF_ERROR(out.Write("],\n\"annotations\": ["));
+  std::map<std::string, int64_t, std::less<>> model_categories;
+  for (const ShardFile& file : dataset.shards().targets) {
+    SOLID_ASSIGN_OR_RETURN(ShardReader * shard, dataset.Shard(file.index));
+    SOLID_RETURN_IF_ERROR(shard->ForEachInstance([&](const InstanceRecord& in) -> Status {
+      const uint64_t area = options.masks == CocoMasks::kFull ? in.full_area : in.visible_area;
+      if (area == 0) {
+        ++report.skipped_invisible;
+        return Status::Ok();
+      }
+      int64_t category = 1;
+      if (options.categories == CocoCategories::kModel) {
+        category = model_categories.try_emplace(in.model_key, model_categories.size() + 1).first->second;
+      }
+      ++report.annotations;
+      const nlohmann::json a = Annotation(in, report.annotations, category, manifest, options.masks);
+      return out.Write(fmt::format("{}\n{}", report.annotations == 1 ? "" : ",", a.dump()));
+    }));
+  }
+
+  nlohmann::json categories = nlohmann::json::array();
+  if (options.categories == CocoCategories::kObject) {
+    categories.push_back({{"id", 1}, {"name", "object"}, {"supercategory", "object"}});
+  } else {
+    std::vector<const std::string*> by_id(model_categories.size());
+    for (const auto& [key, id] : model_categories) by_id[id - 1] = &key;
+    for (size_t i = 0; i < by_id.size(); ++i) {
+      categories.push_back({{"id", i + 1}, {"name", *by_id[i]}, {"supercategory", "object"}});
+    }
+  }
+  report.categories = static_cast<int64_t>(categories.size());
+  SOLID_RETURN_IF_ERROR(out.Write(fmt::format("],\n\"categories\": {}}}\n", categories.dump())));
+  SOLID_RETURN_IF_ERROR(out.Publish());
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace solid::exporters

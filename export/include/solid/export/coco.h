@@ -1,0 +1,53 @@
+// `solid export coco`: a dataset as COCO instances annotations plus image files, for
+// detectors that read COCO (Detectron2's register_coco_instances, pycocotools, mmdet).
+//
+// OUT_DIR/annotations.json is written as a stream (one image or one annotation at a
+// time, never the whole list in memory) to a temporary sibling that is renamed into
+// place at the end, so a reader never sees half a file. Images are written to
+// OUT_DIR/images/<12-digit image id>.<png|jpg|webp>, byte for byte the encoded image
+// the shard stores.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+
+#include "solid/formats/progress.h"
+#include "solid/formats/status.h"
+
+namespace solid::exporters {
+
+// Which mask an annotation's COCO fields (segmentation, area, bbox) describe.
+//   kVisible: the visible mask; the full box and area are extra fields.
+//   kBoth:    as kVisible, plus the full (amodal) mask as the extra field full_segmentation.
+//   kFull:    the full (amodal) mask; the visible box and area are extra fields. Objects
+//             hidden entirely are kept (their amodal mask is not empty).
+// With kVisible and kBoth, instances with an empty visible mask are skipped: a COCO
+// annotation of area 0 breaks training (a zero-size box).
+enum class CocoMasks { kVisible, kBoth, kFull };
+// One category "object" (the task is label-free), or one per model (the per-model baseline).
+enum class CocoCategories { kObject, kModel };
+// kCopy writes the image bytes. The shards hold no image files, so kLink hard-links
+// the images of an earlier export of the same dataset (link_from), after checking that
+// each one has the shard's bytes: exports with other --masks share one copy of the pixels.
+enum class CocoImages { kCopy, kLink };
+
+struct CocoExportOptions {
+  std::filesystem::path dataset;
+  std::filesystem::path out_dir;  // created if missing; annotations.json is replaced
+  CocoMasks masks = CocoMasks::kBoth;
+  CocoCategories categories = CocoCategories::kObject;
+  CocoImages images = CocoImages::kCopy;
+  std::filesystem::path link_from;  // an earlier export's OUT_DIR, for kLink
+  ProgressCallback progress;        // in images
+};
+
+struct CocoExportReport {
+  int64_t images = 0, annotations = 0, categories = 0;
+  int64_t skipped_invisible = 0;  // instances left out because their mask is empty
+  int64_t image_bytes = 0;        // written or linked
+  double seconds = 0;
+};
+
+Result<CocoExportReport> ExportCoco(const CocoExportOptions& options);
+
+}  // namespace solid::exporters
