@@ -42,12 +42,16 @@ echo "blender: $(blender --version 2>/dev/null | head -1); $cores cores; preset 
 # The same layouts on both sides: layout i of (preset, seed) at 640x480. At 320x240
 # Blender renders the same scenes (same camera and field of view); solid samples its own
 # layouts at that size, which may differ where a restart depended on the resolution.
+# A layout whose lights find no position is left out of the dataset (and its scene has
+# no "lights"): take the first `layouts` that have them.
 scenes=()
-for ((i = 0; i < layouts; i++)); do
-  scenes+=("$work/scene-$i.glb")
+for ((i = 0; ${#scenes[@]} < layouts; i++)); do
   "$solid" sample --preset "$preset" --resolution 640x480 --seed "$seed" --assets "$assets" \
     --export-scene "$i" --out "$work/scene-$i.glb" 2>/dev/null
+  if grep -aq '"lights":' "$work/scene-$i.glb"; then scenes+=("$work/scene-$i.glb"); fi
 done
+# solid renders at least those layouts, so that its images of them can be looked at.
+((images >= i)) || images=$i
 
 start=$(date +%s.%N)
 blender -b --factory-startup -noaudio --python bench/tools/blender_render.py -- --out "$keep/blender" \
@@ -65,11 +69,11 @@ solid_render() {
   "$solid" render --preset "$preset" --resolution "$resolution" --seed "$seed" --assets "$assets" --out "$out" \
     --images "$n" --spp "$spp" --jobs "$cores" --json "$@" 2>/dev/null
 }
-# Writes the first `count` images of dataset $1 as PNGs into $2.
+# Writes the images of dataset $1 up to id $3 as PNGs into $2, named as Blender's.
 extract() {
   mkdir -p "$2"
   sqlite3 "$1/shards/shard-000000.sqlite" \
-    "SELECT writefile('$2/layout-' || image_id || '.png', image) FROM images WHERE image_id < $3" >/dev/null
+    "SELECT writefile('$2/scene-' || image_id || '.png', image) FROM images WHERE image_id <= $3" >/dev/null
 }
 
 printf '\n%-34s %10s %12s %12s\n' renderer s/image images/s "vs Cycles"
@@ -78,7 +82,7 @@ for config in 640x480:4 320x240:1 320x240:4; do
   spp=${config#*:}
   report=$(solid_render "$resolution" "$spp" "$images" "$work/ds-$resolution-$spp" --no-queries)
   echo "$report" >"$work/solid-$resolution-$spp.json"
-  extract "$work/ds-$resolution-$spp" "$keep/solid-$resolution-${spp}spp" "$layouts"
+  extract "$work/ds-$resolution-$spp" "$keep/solid-$resolution-${spp}spp" "$((i - 1))"
   solid_rate=$(echo "$report" | jq '.images / .seconds')
   cycles_s=$(blender_mean "$resolution" 5)
   printf '%-34s %10.3f %12.2f %11.1fx\n' "solid render $resolution ${spp} spp" "$(echo "1 / $solid_rate" | bc -l)" \

@@ -19,7 +19,13 @@ import sys
 import time
 
 import bpy
+import numpy
 from mathutils import Vector
+
+# Debian 12's Blender 3.4 glTF importer still uses numpy.bool, which Debian's numpy 1.24
+# has removed; the alias is all it needs.
+if "bool" not in numpy.__dict__:
+    numpy.bool = bool
 
 
 def parse_args():
