@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "solid/formats/glb.h"
+#include "solid/render/shade.h"
 
 namespace solid::render {
 namespace {
@@ -167,13 +168,15 @@ Result<std::vector<uint8_t>> ExportSceneGlb(const Layout& layout) {
   // Z up (ours) to Y up (glTF): -90 degrees about X.
   const double h = std::sqrt(0.5);
   g["nodes"].push_back({{"name", "world"}, {"rotation", {-h, 0.0, 0.0, h}}, {"children", children}});
-  g["scenes"] = json::array({{{"nodes", {g["nodes"].size() - 1}},
-                              {"extras",
-                               {{"layout_index", layout.index},
-                                {"seed", fmt::format("{:016x}", layout.seed)},
-                                {"restart", layout.restart},
-                                {"room", layout.room->key()},
-                                {"resolution", {layout.width, layout.height}}}}}});
+  json extras = {{"layout_index", layout.index},
+                 {"seed", fmt::format("{:016x}", layout.seed)},
+                 {"restart", layout.restart},
+                 {"room", layout.room->key()},
+                 {"resolution", {layout.width, layout.height}}};
+  // glTF has no area lights, so another renderer reproduces `solid render`'s rig from
+  // these; a layout that has none (SampleLights fails) is still worth looking at.
+  if (const Result<LightRig> lights = SampleLights(layout); lights.ok()) extras["lights"] = lights->ToJson();
+  g["scenes"] = json::array({{{"nodes", {g["nodes"].size() - 1}}, {"extras", extras}}});
   g["scene"] = 0;
   g["buffers"] = json::array({{{"byteLength", doc.bin.size()}}});
   return gltf::PackGlb(g, doc.bin);

@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <numbers>
 #include <thread>
 
 #include <fmt/format.h>
 
-#include "instance_scene.h"
 #include "solid/formats/random.h"
 #include "streams.h"
 
@@ -77,16 +77,15 @@ struct SurfaceFrames {
   Vec3f translation;
 };
 
-Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames, const RTCRayHit& rh, Vec3f dir) {
-  const uint32_t instance = rh.hit.instID[0];
+Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames, uint32_t instance, uint32_t prim,
+            float b1, float b2, Vec3f dir) {
   const ShadingSurface& s = scene.surfaces[instance];
   const SurfaceFrames& f = frames[instance];
   const MeshGeometry& m = *s.mesh;
-  const uint32_t prim = rh.hit.primID;
   const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
   auto position = [&](uint32_t i) { return Vec3f{m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]}; };
   auto normal = [&](uint32_t i) { return Vec3f{m.normals[3 * i], m.normals[3 * i + 1], m.normals[3 * i + 2]}; };
-  const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.0f - b1 - b2;
+  const float b0 = 1.0f - b1 - b2;
   const Vec3f p0 = position(i0), p1 = position(i1), p2 = position(i2);
   Hit h;
   // From the barycentrics rather than origin + t * dir: the error then does not grow
@@ -107,19 +106,38 @@ Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames,
   return h;
 }
 
-bool Occluded(RTCScene scene, RTCIntersectContext* context, Vec3f origin, Vec3f dir, float tfar) {
-  RTCRay ray{};
-  ray.org_x = origin.x;
-  ray.org_y = origin.y;
-  ray.org_z = origin.z;
-  ray.dir_x = dir.x;
-  ray.dir_y = dir.y;
-  ray.dir_z = dir.z;
-  ray.tnear = 0;
-  ray.tfar = tfar;
-  ray.mask = UINT32_MAX;
-  rtcOccluded1(scene, context, &ray);
-  return ray.tfar < 0;
+// Pixels are traced in kTile x kTile tiles, one 16-ray packet per tile and sample for
+// the camera rays, then one per light for the shadow rays and one for the ambient
+// rays: a tile's rays are coherent enough that packets beat single rays by far.
+constexpr int kTile = 4;
+constexpr int kLanes = kTile * kTile;
+
+void SetRay(RTCRay16* r, int i, Vec3f origin, Vec3f dir, float tnear, float tfar) {
+  r->org_x[i] = origin.x;
+  r->org_y[i] = origin.y;
+  r->org_z[i] = origin.z;
+  r->dir_x[i] = dir.x;
+  r->dir_y[i] = dir.y;
+  r->dir_z[i] = dir.z;
+  r->tnear[i] = tnear;
+  r->tfar[i] = tfar;
+  r->time[i] = 0;
+  r->mask[i] = UINT32_MAX;
+  r->id[i] = 0;
+  r->flags[i] = 0;
+}
+
+void SetRayHit(RTCRayHit16* r, int i, Vec3f origin, Vec3f dir, float tnear, float tfar) {
+  SetRay(&r->ray, i, origin, dir, tnear, tfar);
+  r->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+  r->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+}
+
+bool AnyValid(const int* valid) {
+  for (int i = 0; i < kLanes; ++i) {
+    if (valid[i]) return true;
+  }
+  return false;
 }
 
 // One pixel's sampler: stratified primary jitter, and per further 2D dimension a
@@ -284,7 +302,15 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
   Strata(spp, &nx, &ny);
   const Vec3f eye = ToFloat(CameraPosition(camera));
   const int dims = static_cast<int>(scene.lights.size()) + 1;  // + ambient occlusion
+  const int tiles_x = (width + kTile - 1) / kTile, tile_rows = (height + kTile - 1) / kTile;
   std::atomic<int> next_row{0};
+
+  // What one lane (pixel) carries from its camera ray's hit to its light and ambient rays.
+  struct Lane {
+    Vec3f sum, radiance, diffuse, f0, n, ng, wo, origin, ambient, wi;
+    float exponent = 0, specular_norm = 0, irradiance = 0;
+    bool covered = false, ambient_lit = false;
+  };
 
   auto work = [&] {
     RTCIntersectContext primary;
@@ -292,96 +318,147 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     primary.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTCIntersectContext secondary;
     rtcInitIntersectContext(&secondary);
-    PixelSampler sampler(nx, ny, dims);
-    for (int y = next_row++; y < height; y = next_row++) {
-      for (int x = 0; x < width; ++x) {
-        const size_t pixel = static_cast<size_t>(y) * width + x;
-        Rng rng(MixSeed(seed, pixel), kShadingStream);
-        sampler.Start(&rng);
-        Vec3f sum;
-        bool covered = false;
+    // Each pixel keeps its own generator and strata, so a pixel's draws do not depend on
+    // its tile, its thread or the other pixels' hits.
+    std::vector<PixelSampler> samplers(kLanes, PixelSampler(nx, ny, dims));
+    std::vector<Rng> rngs(kLanes, Rng(0, kShadingStream));
+    std::array<Lane, kLanes> lanes;
+    alignas(64) int inside[kLanes], hit[kLanes], valid[kLanes];
+    RTCRayHit16 rays;
+    RTCRay16 shadow;
+    for (int ty; (ty = next_row.fetch_add(1, std::memory_order_relaxed)) < tile_rows;) {
+      for (int tx = 0; tx < tiles_x; ++tx) {
+        for (int i = 0; i < kLanes; ++i) {
+          const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
+          inside[i] = x < width && y < height ? -1 : 0;
+          if (!inside[i]) continue;
+          rngs[i] = Rng(MixSeed(seed, static_cast<size_t>(y) * width + x), kShadingStream);
+          samplers[i].Start(&rngs[i]);
+          lanes[i] = Lane{};
+        }
         for (int s = 0; s < spp; ++s) {
-          const auto jitter = sampler.Get(s, -1);
-          const Vec3f dir = Normalized(ToFloat(RayDirection(camera, x + jitter[0], y + jitter[1])));
-          RTCRayHit rh = MakeRay({eye.x, eye.y, eye.z}, {dir.x, dir.y, dir.z}, static_cast<float>(near));
-          rtcIntersect1(scene.scene, &primary, &rh);
-          if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
-            sum = sum + scene.background;
-            continue;
+          for (int i = 0; i < kLanes; ++i) {
+            if (!inside[i]) continue;
+            const auto jitter = samplers[i].Get(s, -1);
+            const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
+            const Vec3f dir = Normalized(ToFloat(RayDirection(camera, x + jitter[0], y + jitter[1])));
+            SetRayHit(&rays, i, eye, dir, static_cast<float>(near), kInfinity);
           }
-          covered = true;
-          const Hit h = Surface(scene, frames, rh, dir);
-          const Vec3f base = BaseColor(h.material, h.textures, h.u, h.v);
-          const float metallic = h.material != nullptr ? std::clamp(h.material->metallic, 0.0f, 1.0f) : 0.0f;
-          const float roughness = h.material != nullptr ? std::clamp(h.material->roughness, 0.0f, 1.0f) : 1.0f;
-          const Vec3f diffuse = base * ((1 - metallic) / kPi);
-          const Vec3f f0 = Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + base * metallic;
-          const float alpha2 = std::max(roughness * roughness * roughness * roughness, 1e-6f);
-          const float exponent = std::clamp(2.0f / alpha2 - 2.0f, 1.0f, kMaxSpecularExponent);
-          const float specular_norm = (exponent + 8) / (8 * kPi);
-          const Vec3f n = h.shading_normal, ng = h.geometric_normal, wo = dir * -1.0f;
-          const float extent = std::max({std::fabs(h.position.x), std::fabs(h.position.y), std::fabs(h.position.z)});
-          const Vec3f origin = h.position + ng * (1e-4f * (1 + extent));
-          Vec3f radiance;
+          rtcIntersect16(inside, scene.scene, &primary, &rays);
+          for (int i = 0; i < kLanes; ++i) {
+            hit[i] = inside[i] && rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
+            Lane& lane = lanes[i];
+            if (!hit[i]) {
+              if (inside[i]) lane.sum = lane.sum + scene.background;
+              continue;
+            }
+            lane.covered = true;
+            const Vec3f dir{rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
+            const Hit h = Surface(scene, frames, rays.hit.instID[0][i], rays.hit.primID[i], rays.hit.u[i],
+                                  rays.hit.v[i], dir);
+            const Vec3f base = BaseColor(h.material, h.textures, h.u, h.v);
+            const float metallic = h.material != nullptr ? std::clamp(h.material->metallic, 0.0f, 1.0f) : 0.0f;
+            const float roughness = h.material != nullptr ? std::clamp(h.material->roughness, 0.0f, 1.0f) : 1.0f;
+            lane.diffuse = base * ((1 - metallic) / kPi);
+            lane.f0 = Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + base * metallic;
+            const float alpha2 = std::max(roughness * roughness * roughness * roughness, 1e-6f);
+            lane.exponent = std::clamp(2.0f / alpha2 - 2.0f, 1.0f, kMaxSpecularExponent);
+            lane.specular_norm = (lane.exponent + 8) / (8 * kPi);
+            lane.n = h.shading_normal;
+            lane.ng = h.geometric_normal;
+            lane.wo = dir * -1.0f;
+            const float extent = std::max({std::fabs(h.position.x), std::fabs(h.position.y), std::fabs(h.position.z)});
+            lane.origin = h.position + lane.ng * (1e-4f * (1 + extent));
+            lane.radiance = {};
+          }
+          if (!AnyValid(hit)) continue;
           for (size_t l = 0; l < scene.lights.size(); ++l) {
             const ShadingLight& light = scene.lights[l];
-            Vec3f point = light.position;
-            if (light.area) {
-              const auto a = sampler.Get(s, static_cast<int>(l));
-              point = point + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
+            for (int i = 0; i < kLanes; ++i) {
+              valid[i] = 0;
+              if (!hit[i]) continue;
+              Lane& lane = lanes[i];
+              Vec3f point = light.position;
+              if (light.area) {
+                const auto a = samplers[i].Get(s, static_cast<int>(l));
+                point = point + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
+              }
+              Vec3f wi = point - lane.origin;
+              const float d2 = std::max(Dot(wi, wi), 1e-4f);
+              const float d = std::sqrt(d2);
+              wi = wi * (1 / d);
+              const float cos_s = Dot(lane.n, wi);
+              // Below the geometric surface the shadow ray would hit its own triangle.
+              if (cos_s <= 0 || Dot(lane.ng, wi) <= 0) continue;
+              // Cycles: an area light's radiance is P / (4 A); a point light's intensity P / (4 pi^2).
+              if (light.area) {
+                const float cos_l = -Dot(light.normal, wi);
+                if (cos_l <= 0) continue;
+                lane.irradiance = light.power_w / 4 * cos_l * cos_s / d2;
+              } else {
+                lane.irradiance = light.power_w / (4 * kPi * kPi) * cos_s / d2;
+              }
+              lane.wi = wi;
+              SetRay(&shadow, i, lane.origin, wi, 0.0f, d);
+              valid[i] = -1;
             }
-            Vec3f wi = point - origin;
-            const float d2 = std::max(Dot(wi, wi), 1e-4f);
-            const float d = std::sqrt(d2);
-            wi = wi * (1 / d);
-            const float cos_s = Dot(n, wi);
-            // Below the geometric surface the shadow ray would hit its own triangle.
-            if (cos_s <= 0 || Dot(ng, wi) <= 0) continue;
-            // Cycles: an area light's radiance is P / (4 A); a point light's intensity P / (4 pi^2).
-            float irradiance;
-            if (light.area) {
-              const float cos_l = -Dot(light.normal, wi);
-              if (cos_l <= 0) continue;
-              irradiance = light.power_w / 4 * cos_l * cos_s / d2;
-            } else {
-              irradiance = light.power_w / (4 * kPi * kPi) * cos_s / d2;
+            if (!AnyValid(valid)) continue;
+            rtcOccluded16(valid, scene.scene, &secondary, &shadow);
+            for (int i = 0; i < kLanes; ++i) {
+              if (!valid[i] || shadow.tfar[i] < 0) continue;
+              Lane& lane = lanes[i];
+              const Vec3f half = Normalized(lane.wi + lane.wo);
+              const float spec = lane.specular_norm * std::pow(std::max(Dot(lane.n, half), 0.0f), lane.exponent);
+              lane.radiance = lane.radiance + (lane.diffuse + lane.f0 * spec) * lane.irradiance;
             }
-            if (Occluded(scene.scene, &secondary, origin, wi, d)) continue;
-            const Vec3f half = Normalized(wi + wo);
-            const float spec = specular_norm * std::pow(std::max(Dot(n, half), 0.0f), exponent);
-            radiance = radiance + (diffuse + f0 * spec) * irradiance;
           }
-          const Vec3f ambient = scene.ambient + scene.sky * ((1 + n.z) / 2);
-          if (Dot(ambient, ambient) > 0 && Dot(diffuse, diffuse) > 0) {
-            const auto a = sampler.Get(s, dims - 1);
+          for (int i = 0; i < kLanes; ++i) {
+            valid[i] = 0;
+            if (!hit[i]) continue;
+            Lane& lane = lanes[i];
+            lane.ambient = scene.ambient + scene.sky * ((1 + lane.n.z) / 2);
+            lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
+            if (!lane.ambient_lit) continue;
+            const auto a = samplers[i].Get(s, dims - 1);
             const float r = std::sqrt(a[0]), phi = 2 * kPi * a[1];
             Vec3f t, b;
-            Basis(n, &t, &b);
-            const Vec3f wa = t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * std::sqrt(1 - a[0]);
-            // Obscurance rather than binary occlusion: a blocker at distance t lets
-            // t / range through, which is much less noisy at a few rays per pixel. A
-            // direction under the geometric surface (smooth-shaded silhouettes) counts as open.
-            float open = 1;
-            if (Dot(wa, ng) > 0) {
-              RTCRayHit ao = MakeRay({origin.x, origin.y, origin.z}, {wa.x, wa.y, wa.z}, 0.0f);
-              ao.ray.tfar = scene.ambient_occlusion_m;
-              rtcIntersect1(scene.scene, &secondary, &ao);
-              if (ao.hit.geomID != RTC_INVALID_GEOMETRY_ID) open = ao.ray.tfar / scene.ambient_occlusion_m;
-            }
-            radiance = radiance + diffuse * (kPi * open) * ambient;
+            Basis(lane.n, &t, &b);
+            const Vec3f wa = t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + lane.n * std::sqrt(1 - a[0]);
+            // A direction under the geometric surface (smooth-shaded silhouettes) counts as open.
+            if (Dot(wa, lane.ng) <= 0) continue;
+            SetRayHit(&rays, i, lane.origin, wa, 0.0f, scene.ambient_occlusion_m);
+            valid[i] = -1;
           }
-          sum = sum + Vec3f{std::min(radiance.x, kMaxSampleRadiance), std::min(radiance.y, kMaxSampleRadiance),
-                            std::min(radiance.z, kMaxSampleRadiance)};
+          if (AnyValid(valid)) rtcIntersect16(valid, scene.scene, &secondary, &rays);
+          for (int i = 0; i < kLanes; ++i) {
+            if (!hit[i]) continue;
+            Lane& lane = lanes[i];
+            if (lane.ambient_lit) {
+              // Obscurance rather than binary occlusion: a blocker at distance t lets
+              // t / range through, which is much less noisy at a few rays per pixel.
+              const float open = valid[i] && rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID
+                                     ? rays.ray.tfar[i] / scene.ambient_occlusion_m
+                                     : 1.0f;
+              lane.radiance = lane.radiance + lane.diffuse * (kPi * open) * lane.ambient;
+            }
+            lane.sum = lane.sum + Vec3f{std::min(lane.radiance.x, kMaxSampleRadiance),
+                                        std::min(lane.radiance.y, kMaxSampleRadiance),
+                                        std::min(lane.radiance.z, kMaxSampleRadiance)};
+          }
         }
         const float inv = 1.0f / static_cast<float>(spp);
-        film.rgb[3 * pixel] = sum.x * inv;
-        film.rgb[3 * pixel + 1] = sum.y * inv;
-        film.rgb[3 * pixel + 2] = sum.z * inv;
-        film.covered[pixel] = covered ? 1 : 0;
+        for (int i = 0; i < kLanes; ++i) {
+          if (!inside[i]) continue;
+          const size_t pixel = static_cast<size_t>(ty * kTile + i / kTile) * width + tx * kTile + i % kTile;
+          film.rgb[3 * pixel] = lanes[i].sum.x * inv;
+          film.rgb[3 * pixel + 1] = lanes[i].sum.y * inv;
+          film.rgb[3 * pixel + 2] = lanes[i].sum.z * inv;
+          film.covered[pixel] = lanes[i].covered ? 1 : 0;
+        }
       }
     }
   };
-  const int n_threads = std::clamp(threads, 1, std::max(1, height));
+  const int n_threads = std::clamp(threads, 1, std::max(1, tile_rows));
   if (n_threads == 1) {
     work();
   } else {
@@ -392,13 +469,45 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
   return film;
 }
 
+namespace {
+
+// thresholds[k - 1]: the least display-linear value that LinearToSrgb8 maps to k or more
+// (it is monotonic), so that encoding a film costs a short search per channel instead
+// of a pow, with the same bytes.
+const std::array<float, 255>& SrgbThresholds() {
+  static const std::array<float, 255> table = [] {
+    std::array<float, 255> t{};
+    for (int k = 1; k < 256; ++k) {
+      // Bisection over the bit patterns of the floats in [0, 1], which order as the values.
+      uint32_t lo = 0, hi = std::bit_cast<uint32_t>(1.0f);
+      while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (LinearToSrgb8(std::bit_cast<float>(mid)) >= k) {
+          hi = mid;
+        } else {
+          lo = mid + 1;
+        }
+      }
+      t[k - 1] = std::bit_cast<float>(lo);
+    }
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace
+
 Image8 EncodeFilm(const Film& film) {
   Image8 out;
   out.width = static_cast<uint32_t>(film.width);
   out.height = static_cast<uint32_t>(film.height);
   out.channels = 3;
   out.pixels.resize(film.rgb.size());
-  for (size_t i = 0; i < film.rgb.size(); ++i) out.pixels[i] = LinearToSrgb8(ToneMap(film.rgb[i]));
+  const std::array<float, 255>& thresholds = SrgbThresholds();
+  for (size_t i = 0; i < film.rgb.size(); ++i) {
+    const float v = ToneMap(film.rgb[i]);
+    out.pixels[i] = static_cast<uint8_t>(std::upper_bound(thresholds.begin(), thresholds.end(), v) - thresholds.begin());
+  }
   return out;
 }
 

@@ -16,6 +16,7 @@
 #include "solid/formats/glb.h"
 #include "solid/render/params.h"
 #include "solid/render/sample.h"
+#include "solid/render/shade.h"
 
 namespace solid::render {
 namespace {
@@ -54,6 +55,8 @@ TEST(ExportScene, NodesCarryTheSampledTransformsAndTheCamera) {
   EXPECT_EQ(world["name"], "world");
   EXPECT_EQ(world["children"].size(), layout.objects.size() + 2);
   EXPECT_EQ(g["scenes"][0]["extras"]["layout_index"], 3);
+  // The rig `solid render` lights this layout with, for renderers that reproduce it.
+  EXPECT_EQ(g["scenes"][0]["extras"]["lights"], SampleLights(layout).value().ToJson());
   for (size_t k = 0; k < layout.objects.size(); ++k) {
     const json& node = g["nodes"][k + 1];
     EXPECT_EQ(node["extras"]["model_key"], layout.objects[k].model_key);

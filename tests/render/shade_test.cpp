@@ -182,6 +182,22 @@ TEST(Shade, CheckerTextureRepeatsWithBilinearFilter) {
   EXPECT_EQ(decoded.textures[0].mean_linear.y, 0.5f);
 }
 
+TEST(Shade, FilmEncodingIsTheToneCurveThenSrgb) {
+  // EncodeFilm searches precomputed code thresholds; over a dense sweep that reaches
+  // every code (and each value's float neighbours), it must give exactly the curve's codes.
+  Film film;
+  for (int i = 0; i <= 200000; ++i) {
+    const float v = std::ldexp(static_cast<float>(i) / 200000, 4) - 0.5f;  // [-0.5, 15.5], through 0 and the knee
+    film.rgb.insert(film.rgb.end(), {v, std::nextafter(v, 1e9f), std::nextafter(v, -1e9f)});
+  }
+  film.width = static_cast<int>(film.rgb.size() / 3);
+  film.height = 1;
+  const Image8 image = EncodeFilm(film);
+  for (size_t i = 0; i < film.rgb.size(); ++i) {
+    ASSERT_EQ(image.pixels[i], LinearToSrgb8(ToneMap(film.rgb[i]))) << film.rgb[i];
+  }
+}
+
 TEST(Shade, LightsFollowTheRules) {
   auto sampler = LayoutSampler::Create(LoadPreset("occlusion").value(), testing::ProceduralLibrary()).value();
   for (int i = 0; i < 4; ++i) {
