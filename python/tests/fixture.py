@@ -1,0 +1,34 @@
+"""A tiny dataset rendered by the `solid` binary named in $SOLID_BINARY, once per process."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import tempfile
+import unittest
+from pathlib import Path
+
+IMAGES = 16
+SHARD_SIZE = 8
+WIDTH, HEIGHT = 96, 72
+MODELS = 16
+
+_dir: tempfile.TemporaryDirectory | None = None
+
+
+def dataset_dir() -> Path:
+    """The rendered dataset's root; raises SkipTest when no binary is given."""
+    global _dir
+    binary = os.environ.get("SOLID_BINARY")
+    if not binary:
+        raise unittest.SkipTest("SOLID_BINARY is not set: no solid binary to render the test dataset with")
+    if _dir is None:
+        _dir = tempfile.TemporaryDirectory(prefix="solid-python-")
+        root = Path(_dir.name)
+        for args in (["convert", "procedural", str(root / "assets"), "--models", str(MODELS), "--rooms", "3",
+                      "--seed", "7"],
+                     ["render", "--preset", "random-placement", "--resolution", f"{WIDTH}x{HEIGHT}",
+                      "--assets", str(root / "assets"), "--out", str(root / "ds"), "--images", str(IMAGES),
+                      "--shard-size", str(SHARD_SIZE), "--spp", "1", "--query-size", "48"]):
+            subprocess.run([binary, *args], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return Path(_dir.name) / "ds"
