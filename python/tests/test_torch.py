@@ -18,10 +18,9 @@ TARGETS = 4
 QUERIES = 8
 
 
-def batches(root, seed, num_workers, epoch=0, **options):
+def batches(root, seed, num_workers, **options):
     loader = pretrain_loader(root, seed=seed, num_workers=num_workers, targets_per_batch=TARGETS,
                              cache_images=fixture.SHARD_SIZE, queries_per_batch=QUERIES, **options)
-    loader.sampler.set_epoch(epoch)
     return list(loader)
 
 
@@ -119,14 +118,22 @@ class PretrainBatchesTest(unittest.TestCase):
                 self.assertTrue(torch.equal(ta["image"], tb["image"]))
                 self.assertTrue(torch.equal(ta["masks"], tb["masks"]))
                 self.assertTrue(torch.equal(ta["query_index"], tb["query_index"]))
-        order = [[t["image_id"] for t in b["targets"]] for b in self.epoch0]
-        other_seed = batches(self.root, seed=6, num_workers=0, target_short_sides=None)
-        other_epoch = batches(self.root, seed=5, num_workers=0, epoch=1, target_short_sides=None)
-        self.assertNotEqual(order, [[t["image_id"] for t in b["targets"]] for b in other_seed])
-        self.assertNotEqual(order, [[t["image_id"] for t in b["targets"]] for b in other_epoch])
+        order = [tuple(t["image_id"] for t in b["targets"]) for b in self.epoch0]
+
+        def sampled(seed, epoch):
+            sampler = PretrainBatchSampler(self.ds, targets_per_batch=TARGETS, cache_images=fixture.SHARD_SIZE,
+                                           seed=seed)
+            return [spec.image_ids for spec in sampler.batches(epoch)]
+
+        self.assertEqual(order, sampled(5, 0))
+        self.assertNotEqual(order, sampled(6, 0))
+        self.assertNotEqual(order, sampled(5, 1))
+        sampler = PretrainBatchSampler(self.ds, targets_per_batch=TARGETS, cache_images=fixture.SHARD_SIZE, seed=5)
+        sampler.set_epoch(1)
+        self.assertEqual([spec.image_ids for spec in sampler], sampled(5, 1))
 
     def test_resized_targets(self):
-        resized = batches(self.root, seed=5, num_workers=2, target_short_sides=(144,), flip_probability=0.0)
+        resized = batches(self.root, seed=5, num_workers=0, target_short_sides=(144,), flip_probability=0.0)
         for batch in resized:
             for target in batch["targets"]:
                 self.assertEqual(tuple(target["image"].shape), (3, 144, 192))
