@@ -178,25 +178,31 @@ class PretrainDataset(torch.utils.data.Dataset):
         masks = np.empty((len(kept), image.height, image.width), dtype=bool)
         for k, inst in enumerate(kept):
             masks[k] = rle.decode(inst.visible_rle, image.height, image.width)
+        # Masks are resized and flipped by gathering, for each output row and column, its source
+        # row and column (nearest neighbour): boxes come from the per-row and per-column
+        # occupancy gathered the same way, so only the masks that are kept are ever resized.
+        rows = np.arange(image.height)
+        columns = np.arange(image.width)
         scale = 1.0
         if self.target_short_sides is not None:
             short = self.target_short_sides[int(rng.integers(len(self.target_short_sides)))]
             scale = min(short / min(image.height, image.width), self.target_max_size / max(image.height, image.width))
             height, width = round(image.height * scale), round(image.width * scale)
             pixels = np.asarray(PILImage.fromarray(pixels).resize((width, height), PILImage.BILINEAR))
-            masks = masks[:, _nearest(image.height, height)][:, :, _nearest(image.width, width)]
+            rows, columns = _nearest(image.height, height), _nearest(image.width, width)
         flipped = bool(rng.random() < self.flip_probability)
         if flipped:
             pixels = pixels[:, ::-1]
-            masks = masks[:, :, ::-1]
-        boxes = _boxes(masks)
+            columns = columns[::-1]
+        boxes = _boxes(masks.any(axis=1)[:, columns], masks.any(axis=2)[:, rows])
         size_ok = ((boxes[:, 2] - boxes[:, 0]) > self.min_box_size) & ((boxes[:, 3] - boxes[:, 1]) > self.min_box_size)
         keep = np.flatnonzero(size_ok)
         return {
             "image_id": image.image_id,
             "image": torch.from_numpy(np.ascontiguousarray(pixels.transpose(2, 0, 1))),
             "boxes": torch.from_numpy(boxes[keep].astype(np.float32)),
-            "masks": torch.from_numpy(np.ascontiguousarray(masks[keep])),
+            # Columns first, at the stored height, then whole rows: far cheaper than one 3-D gather.
+            "masks": torch.from_numpy(np.take(masks[keep][:, :, columns], rows, axis=1)),
             "query_index": torch.tensor([query_of_model[kept[k].model_key] for k in keep], dtype=torch.int64),
             "ordinals": torch.tensor([kept[k].ordinal for k in keep], dtype=torch.int64),
             "scale": scale,
@@ -209,20 +215,16 @@ def _nearest(source: int, target: int) -> np.ndarray:
     return np.minimum(((np.arange(target) + 0.5) * (source / target)).astype(np.int64), source - 1)
 
 
-def _boxes(masks: np.ndarray) -> np.ndarray:
-    """Half-open [x1, y1, x2, y2] of each mask (x2, y2 one past the last set column, row)."""
-    if masks.shape[0] == 0:
-        return np.zeros((0, 4), dtype=np.int64)
-    columns = masks.any(axis=1)
-    rows = masks.any(axis=2)
+def _boxes(columns: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Half-open [x1, y1, x2, y2] of each mask (x2, y2 one past the last set column, row) from
+    whether each of its columns (N x W) and rows (N x H) holds a set pixel; zero when empty."""
     width, height = columns.shape[1], rows.shape[1]
     x1 = columns.argmax(axis=1)
     x2 = width - columns[:, ::-1].argmax(axis=1)
     y1 = rows.argmax(axis=1)
     y2 = height - rows[:, ::-1].argmax(axis=1)
-    empty = ~columns.any(axis=1)
     boxes = np.stack([x1, y1, x2, y2], axis=1)
-    boxes[empty] = 0
+    boxes[~columns.any(axis=1)] = 0
     return boxes
 
 
