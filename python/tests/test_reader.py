@@ -1,5 +1,6 @@
 import json
 import multiprocessing
+import pickle
 import re
 import sqlite3
 import unittest
@@ -104,6 +105,14 @@ class ReaderTest(unittest.TestCase):
             results = pool.starmap(_last_image_checksum, [()] * 4)
         self.assertEqual(results, [expected] * 4)
         _shared_dataset.close()
+
+    def test_pickles_without_its_connections(self):
+        # What a spawned DataLoader worker receives.
+        image_id = int(self.ds.annotated_image_ids[0])
+        self.ds.image(image_id)
+        copy = pickle.loads(pickle.dumps(self.ds))
+        self.assertEqual(copy.image(image_id).data, self.ds.image(image_id).data)
+        copy.close()
 
     def test_rejects_what_is_not_a_dataset(self):
         with self.assertRaises(FileNotFoundError):

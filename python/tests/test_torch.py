@@ -83,18 +83,23 @@ class PretrainBatchesTest(unittest.TestCase):
         self.assertGreater(kept, 0)
         self.assertGreater(dropped_small, 0, "no box of 8 px or less in the test data: the filter went untested")
 
-    def test_queries_present_models_first_one_view_each(self):
+    def check_queries(self, batches_, queries):
+        """Checks each batch's queries; returns how many batches had more present models than
+        queries, and how many had room for negatives."""
         with_views = {k for k in self.ds.model_keys if self.ds.view_count(k) > 0}
-        for batch in self.epoch0:
+        truncated = with_negatives = 0
+        for batch in batches_:
             keys = batch["query_model_keys"]
-            self.assertEqual(len(keys), min(QUERIES, len(with_views)))
+            self.assertEqual(len(keys), min(queries, len(with_views)))
             self.assertEqual(len(set(keys)), len(keys))
             present = {i.model_key for t in batch["targets"] for i in self.ds.image(t["image_id"]).instances
                        if i.visible_area > 0} & with_views
             positives = batch["positive_queries"]
-            self.assertEqual(positives, min(len(present), QUERIES))
+            self.assertEqual(positives, min(len(present), queries))
             self.assertTrue(set(keys[:positives]) <= present)
             self.assertFalse(set(keys[positives:]) & present)
+            truncated += len(present) > queries
+            with_negatives += positives < len(keys)
             for q, key in enumerate(keys):
                 view = self.ds.query_view(key, int(batch["query_view_indices"][q]))
                 h, w = batch["query_sizes"][q].tolist()
@@ -106,6 +111,17 @@ class PretrainBatchesTest(unittest.TestCase):
                 image = batch["query_images"][q]
                 np.testing.assert_array_equal(image[:, :h, :w].permute(1, 2, 0).numpy(), resized)
                 self.assertEqual(int(image[:, h:, :].sum() + image[:, :, w:].sum()), 0)
+        return truncated, with_negatives
+
+    def test_queries_present_models_first_one_view_each(self):
+        truncated, _ = self.check_queries(self.epoch0, QUERIES)
+        self.assertGreater(truncated, 0, "no batch with more models than queries: the cut went untested")
+        # One target per batch and more queries than it has models: negatives follow the positives.
+        loader = pretrain_loader(self.root, seed=5, num_workers=0, targets_per_batch=1, cache_images=1,
+                                 queries_per_batch=12, target_short_sides=None)
+        single = [batch for _, batch in zip(range(6), loader)]
+        _, with_negatives = self.check_queries(single, 12)
+        self.assertEqual(with_negatives, len(single))
 
     def test_same_seed_same_batches_whatever_the_workers(self):
         again = batches(self.root, seed=5, num_workers=0, target_short_sides=None)
