@@ -10,7 +10,7 @@ directory, then times DataLoaders with the same batch specs (16 targets, 128 que
                       640-800, flip, boxes from masks, queries resized to 224)
   batches, stored     the same at the stored image size (no target resize)
   images, sqlite      only read and decode the batch's images (targets, and queries resized to
-                      224) from the shards
+                      224) from the shards (through Dataset.image, so with the targets' instance rows)
   images, files       the same from the exported files
 
 Both image rows read the same bytes and decode them the same way, so their ratio is what
