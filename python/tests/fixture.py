@@ -30,5 +30,7 @@ def dataset_dir() -> Path:
                      ["render", "--preset", "random-placement", "--resolution", f"{WIDTH}x{HEIGHT}",
                       "--assets", str(root / "assets"), "--out", str(root / "ds"), "--images", str(IMAGES),
                       "--shard-size", str(SHARD_SIZE), "--spp", "1", "--query-size", "48"]):
-            subprocess.run([binary, *args], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            done = subprocess.run([binary, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            if done.returncode != 0:
+                raise RuntimeError(f"solid {args[0]} exited with {done.returncode}:\n{done.stderr}")
     return Path(_dir.name) / "ds"
