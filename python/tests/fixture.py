@@ -23,8 +23,8 @@ def dataset_dir() -> Path:
     if not binary:
         raise unittest.SkipTest("SOLID_BINARY is not set: no solid binary to render the test dataset with")
     if _dir is None:
-        _dir = tempfile.TemporaryDirectory(prefix="solid-python-")
-        root = Path(_dir.name)
+        scratch = tempfile.TemporaryDirectory(prefix="solid-python-")
+        root = Path(scratch.name)
         for args in (["convert", "procedural", str(root / "assets"), "--models", str(MODELS), "--rooms", "3",
                       "--seed", "7"],
                      ["render", "--preset", "random-placement", "--resolution", f"{WIDTH}x{HEIGHT}",
@@ -33,4 +33,5 @@ def dataset_dir() -> Path:
             done = subprocess.run([binary, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
             if done.returncode != 0:
                 raise RuntimeError(f"solid {args[0]} exited with {done.returncode}:\n{done.stderr}")
+        _dir = scratch  # only once complete, so that a failed render is not reused
     return Path(_dir.name) / "ds"
