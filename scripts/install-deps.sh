@@ -16,6 +16,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite assimp-testmodels bc
   # headless browser of the report test (tests/export/report_test.cpp)
   chromium
+  # the Python reader (python/) and its tests: Debian's python3 with NumPy, Pillow (PNG decoding) and PyTorch
+  python3 python3-numpy python3-pil python3-torch
 )
 
 # Optional tools (fuzzing with clang and libFuzzer): installed with --fuzz.
