@@ -183,7 +183,7 @@ class Renderer {
       }
       AddStages(&stages, image.stages);
       if (!image.failure.empty()) {
-        failures.push_back(fmt::format("{}", image.failure));
+        failures.push_back(image.failure);
         Progress();
         continue;
       }
