@@ -3,7 +3,7 @@
 -- Unlike shards, the catalog is updated in place as a batch runs (WAL journal).
 -- Conventions as in shard.sql.
 
-PRAGMA application_id = 1397506115;  -- 'SLDC'
+PRAGMA application_id = 1397506115;  -- 0x534C4043, 'SL@C'
 PRAGMA user_version = 1;
 
 CREATE TABLE catalog_meta (

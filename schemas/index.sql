@@ -1,7 +1,7 @@
 -- solid dataset index: index.sqlite, rebuilt from the shards present by `solid index`.
 -- Derived data only: deleting it loses nothing. Conventions as in shard.sql.
 
-PRAGMA application_id = 1397506121;  -- 'SLDI'
+PRAGMA application_id = 1397506121;  -- 0x534C4049, 'SL@I'
 PRAGMA user_version = 1;
 
 CREATE TABLE index_meta (

@@ -2,7 +2,7 @@
 -- targets gets its views once per dataset; a model lives in exactly one query shard.
 -- Conventions as in shard.sql.
 
-PRAGMA application_id = 1397506129;  -- 'SLDQ'
+PRAGMA application_id = 1397506129;  -- 0x534C4051, 'SL@Q'
 PRAGMA user_version = 1;
 
 CREATE TABLE shard_meta (

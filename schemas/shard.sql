@@ -11,7 +11,7 @@
 -- Matrices are BLOBs of 12 little-endian float64, row-major 3x4 [R | t].
 -- World frame: metres, Z up. Camera frame: looks along -Z, +Y up.
 
-PRAGMA application_id = 1397506131;  -- 'SLDS'
+PRAGMA application_id = 1397506131;  -- 0x534C4053, 'SL@S'
 PRAGMA user_version = 1;
 
 -- Free-form per-shard provenance: shard_index, generator_version, params_hash,

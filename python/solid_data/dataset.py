@@ -23,8 +23,7 @@ from . import rle
 __all__ = ["Dataset", "Image", "Instance", "QueryView", "decode_image"]
 
 _FORMAT_VERSION = 1
-# The values of schemas/{shard,queries,index}.sql, which are normative. Their comments (and
-# docs/dataset-format.md) spell them 'SLDS', 'SLDQ', 'SLDI', but the third byte is 0x40, not 'D'.
+# The values of schemas/{shard,queries,index}.sql, which are normative ('SL@S', 'SL@Q', 'SL@I').
 _APPLICATION_IDS = {"shard": 1397506131, "queries": 1397506129, "index": 1397506121}
 
 
