@@ -13,7 +13,7 @@ packages=(
   libembree-dev libdraco-dev libtinygltf-dev libtinyobjloader-dev libmeshoptimizer-dev
   libnlopt-cxx-dev libtbb-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite assimp-testmodels bc
+  libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite assimp-testmodels bc jq
   # headless browser of the report test (tests/export/report_test.cpp)
   chromium
   # the Python reader (python/) and its tests: Debian's python3 with NumPy, Pillow (PNG decoding) and PyTorch
