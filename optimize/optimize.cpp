@@ -5,12 +5,9 @@
 #include <nlopt.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <mutex>
-#include <thread>
 
 #include "solid/formats/dataset.h"
 #include "solid/formats/files.h"
@@ -287,52 +284,16 @@ Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::
   const double area_scale = static_cast<double>(params.width) * params.height / (static_cast<double>(at.width) * at.height);
   at.min_visible_pixels = std::max(1, static_cast<int>(std::lround(params.min_visible_pixels / area_scale)));
   SOLID_ASSIGN_OR_RETURN(std::unique_ptr<render::LayoutSampler> sampler, render::LayoutSampler::Create(at, library));
-
-  struct PerLayout {
-    bool ok = false;
-    std::vector<std::pair<uint64_t, uint64_t>> areas;  // (visible, full) of annotated instances
-  };
-  const int64_t n = options.layouts;
-  std::vector<PerLayout> layouts(static_cast<size_t>(n));
-  std::atomic<int64_t> next{0};
-  std::mutex error_mutex;
-  Status error;
-  auto worker = [&] {
-    for (int64_t i = next++; i < n; i = next++) {
-      Result<render::GeneratedLayout> g = render::GenerateLayout(*sampler, options.seed, options.first + i);
-      if (!g.ok()) {
-        if (g.status().code() == StatusCode::kLimitExceeded) continue;
-        std::lock_guard lock(error_mutex);
-        if (error.ok()) error = g.status();
-        next = n;
-        return;
-      }
-      PerLayout& out = layouts[static_cast<size_t>(i)];
-      out.ok = true;
-      for (const InstanceRecord& r : g->masks.instances) {
-        if (r.visible_area >= static_cast<uint64_t>(at.min_visible_pixels)) out.areas.emplace_back(r.visible_area, r.full_area);
-      }
-    }
-  };
-  const int jobs = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::vector<std::thread> pool;
-  for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
-  SOLID_RETURN_IF_ERROR(error);
-
-  // Merged in index order, so that the result does not depend on the number of jobs.
-  MetricsAccumulator metrics(area_scale);
+  render::SampleOptions sample;
+  sample.seed = options.seed;
+  sample.first = options.first;
+  sample.layouts = options.layouts;
+  sample.jobs = options.jobs;
+  sample.area_scale = area_scale;
+  SOLID_ASSIGN_OR_RETURN(const render::SampleReport report, render::RunSample(*sampler, sample));
   Evaluation e;
-  for (const PerLayout& l : layouts) {
-    if (!l.ok) {
-      ++e.failed_layouts;
-      continue;
-    }
-    metrics.AddImageCounts(static_cast<int64_t>(l.areas.size()), static_cast<int64_t>(l.areas.size()));
-    for (const auto& [visible, full] : l.areas) metrics.AddVisibleInstance(visible, full);
-  }
-  e.metrics = metrics.Finish();
+  e.metrics = report.metrics;
+  e.failed_layouts = report.failed_layouts;
   e.seconds = SecondsSince(start);
   return e;
 }

@@ -6,11 +6,11 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
-#include <thread>
 
 #include <fmt/format.h>
 
 #include "instance_scene.h"
+#include "workers.h"
 
 namespace solid::render {
 namespace {
@@ -184,14 +184,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
       }
     }
   };
-  const int threads = std::clamp(options.threads, 1, std::max(1, tile_rows));
-  if (threads == 1) {
-    trace_tile_rows();
-  } else {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) pool.emplace_back(trace_tile_rows);
-    for (std::thread& t : pool) t.join();
-  }
+  RunOnThreads(std::clamp(options.threads, 1, std::max(1, tile_rows)), trace_tile_rows);
 
   const std::vector<rle::IdRle> visible = rle::EncodeIdImageRowMajor(out.ids, h, w);
   const rle::Rle empty = rle::EncodeRowMajor(std::vector<uint8_t>(pixels, 0), h, w);

@@ -24,24 +24,18 @@
 #include "solid/render/params.h"
 #include "solid/render/sample.h"
 
+#include "workers.h"
+
 namespace solid::render {
 namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-double MillisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
 int64_t PeakRssBytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<int64_t>(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
-}
-
-int Jobs(int requested) {
-  return requested > 0 ? requested : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
 // Everything one image contributes to its shard, or why it has none.
@@ -137,7 +131,7 @@ class Renderer {
     SOLID_RETURN_IF_ERROR(writer.SetMeta("params_hash", fmt::format("{:016x}", manifest_.ParamsHash())));
     SOLID_RETURN_IF_ERROR(writer.SetMeta("seed", std::to_string(manifest_.seed)));
 
-    const int jobs = static_cast<int>(std::min<int64_t>(Jobs(options_.jobs), std::max<int64_t>(1, end - first)));
+    const int jobs = static_cast<int>(std::min<int64_t>(WorkerCount(options_.jobs), std::max<int64_t>(1, end - first)));
     const int64_t window = 2 * static_cast<int64_t>(jobs);
     std::vector<RenderedImage> slots(static_cast<size_t>(window));
     std::vector<bool> ready(static_cast<size_t>(window), false);
@@ -279,10 +273,8 @@ class Renderer {
       }
     };
     const auto start = Clock::now();
-    std::vector<std::thread> pool;
-    const int jobs = static_cast<int>(std::min<size_t>(Jobs(options_.jobs), std::max<size_t>(1, end - first)));
-    for (int t = 0; t < jobs; ++t) pool.emplace_back(worker);
-    for (std::thread& t : pool) t.join();
+    RunOnThreads(static_cast<int>(std::min<size_t>(WorkerCount(options_.jobs), std::max<size_t>(1, end - first))),
+                 worker);
     report_.stages.query_views += MillisecondsSince(start);
 
     ShardWriteOptions write_options;

@@ -10,12 +10,10 @@
 
 #include <fmt/format.h>
 
+#include "workers.h"
+
 namespace solid::render {
 namespace {
-
-double MillisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
 
 // What one layout contributes to the report; merged in index order so that the
 // report is the same for any number of jobs.
@@ -76,6 +74,7 @@ void ViewpointHistogram::Add(double azimuth, double elevation) {
 
 Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions& options) {
   if (options.layouts < 0 || options.first < 0) return InvalidArgumentError("layouts and first must be >= 0");
+  if (!(options.area_scale > 0)) return InvalidArgumentError("area_scale must be > 0");
   const auto start = std::chrono::steady_clock::now();
   const int64_t n = options.layouts;
   std::vector<LayoutSummary> summaries(static_cast<size_t>(n));
@@ -116,7 +115,7 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
       ++done;
     }
   };
-  const int jobs = options.jobs > 0 ? options.jobs : std::max(1u, std::thread::hardware_concurrency());
+  const int jobs = WorkerCount(options.jobs);
   std::vector<std::thread> pool;
   for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
   if (options.progress) {
@@ -139,7 +138,7 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
   SOLID_RETURN_IF_ERROR(error);
 
   SampleReport report;
-  MetricsAccumulator metrics;
+  MetricsAccumulator metrics(options.area_scale);
   double truncation_sum = 0, truncation_sq = 0;
   int64_t truncation_n = 0;
   double sample_ms = 0, mask_ms = 0, attempts = 0, placed = 0, proposals = 0;

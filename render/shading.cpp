@@ -5,12 +5,12 @@
 #include <atomic>
 #include <bit>
 #include <numbers>
-#include <thread>
 
 #include <fmt/format.h>
 
 #include "solid/formats/random.h"
 #include "streams.h"
+#include "workers.h"
 
 namespace solid::render {
 
@@ -458,14 +458,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
       }
     }
   };
-  const int n_threads = std::clamp(threads, 1, std::max(1, tile_rows));
-  if (n_threads == 1) {
-    work();
-  } else {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < n_threads; ++t) pool.emplace_back(work);
-    for (std::thread& t : pool) t.join();
-  }
+  RunOnThreads(std::clamp(threads, 1, std::max(1, tile_rows)), work);
   return film;
 }
 

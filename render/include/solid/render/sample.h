@@ -46,6 +46,10 @@ struct SampleOptions {
   int64_t first = 0;  // layouts first .. first + layouts - 1
   int64_t layouts = 100;
   int jobs = 0;       // layouts in parallel; 0: all cores
+  // Scale classes as at a resolution with `area_scale` times more pixels than the
+  // params' (MetricsAccumulator): the optimizer measures at a lower resolution than
+  // the dataset it aims for.
+  double area_scale = 1;
   ProgressCallback progress;
 };
 
