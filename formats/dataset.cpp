@@ -61,7 +61,10 @@ nlohmann::json Manifest::ToJson() const {
 }
 
 Result<Manifest> Manifest::Parse(std::string_view text, std::string_view name) {
-  SOLID_ASSIGN_OR_RETURN(nlohmann::json doc, json::ParseJson(text, name));
+  json::ParseLimits limits;
+  limits.max_bytes = kMaxManifestBytes;
+  limits.max_string_length = json::kMaxConfigStringBytes;
+  SOLID_ASSIGN_OR_RETURN(nlohmann::json doc, json::ParseJson(text, name, limits));
   SOLID_ASSIGN_OR_RETURN(const json::Schema* schema, ManifestSchema());
   SOLID_RETURN_IF_ERROR(schema->Check(doc, name, text));
   // The schema guarantees presence and types from here on.
@@ -137,7 +140,10 @@ Result<ShardListing> ListShards(const fs::path& root) {
       const fs::path& p = it->path();
       if (files::IsTempPath(p)) continue;
       Result<int64_t> index = parse(p.filename().string());
-      if (index.ok() && it->is_regular_file(ec)) {
+      // A shard may be a symbolic link, but not one that leads out of the dataset.
+      const bool escapes =
+          it->is_symlink(ec) && !files::ResolveInside(root, p.lexically_relative(root).string()).ok();
+      if (index.ok() && it->is_regular_file(ec) && !escapes) {
         out->push_back({*index, p});
       } else {
         listing.unexpected.push_back(p);

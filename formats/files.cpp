@@ -158,6 +158,42 @@ Result<std::vector<uint8_t>> ReadFile(const std::filesystem::path& path, uint64_
   return out;
 }
 
+bool IsInside(const std::filesystem::path& path, const std::filesystem::path& root) {
+  // "a/b/" and "a/b" are the same directory; lexically_relative tells them apart.
+  auto strip = [](std::filesystem::path p) {
+    p = p.lexically_normal();
+    return p.has_filename() || !p.has_relative_path() ? p : p.parent_path();
+  };
+  const std::filesystem::path relative = strip(path).lexically_relative(strip(root));
+  return !relative.empty() && *relative.begin() != "..";
+}
+
+Result<std::filesystem::path> ResolveInside(const std::filesystem::path& root, std::string_view relative) {
+  namespace fs = std::filesystem;
+  const fs::path written(relative);
+  auto refuse = [&](std::string_view why) {
+    return CorruptError(fmt::format("path '{}' {}", relative, why));
+  };
+  if (relative.empty()) return refuse("is empty");
+  if (relative.find('\0') != std::string_view::npos) return refuse("holds a NUL byte");
+  if (written.is_absolute() || written.has_root_path()) return refuse(fmt::format("is absolute; it must lie inside {}", root.string()));
+  std::error_code ec;
+  const fs::path base = fs::absolute(root, ec).lexically_normal();
+  if (ec) return IoError(fmt::format("{}: {}", root.string(), ec.message()));
+  const fs::path resolved = (base / written).lexically_normal();
+  if (!IsInside(resolved, base)) return refuse(fmt::format("leaves {}", root.string()));
+  if (resolved.lexically_relative(base) == ".") return refuse(fmt::format("names {} itself", root.string()));
+  // A symbolic link on the way may point anywhere: compare the real paths too.
+  if (fs::is_symlink(fs::symlink_status(resolved, ec)) && !fs::exists(resolved, ec)) {
+    return refuse("is a dangling symbolic link");
+  }
+  const fs::path real = fs::weakly_canonical(resolved, ec);
+  const fs::path real_root = ec ? fs::path() : fs::weakly_canonical(base, ec);
+  if (ec) return IoError(fmt::format("{}: {}", resolved.string(), ec.message()));
+  if (!IsInside(real, real_root)) return refuse(fmt::format("leaves {} through a symbolic link", root.string()));
+  return resolved;
+}
+
 Result<FileDigest> DigestFile(const std::filesystem::path& path) {
   Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
   if (fd.get() < 0) return ErrnoStatus("open", path, errno);

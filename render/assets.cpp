@@ -207,13 +207,9 @@ Result<std::shared_ptr<AssetLibrary>> AssetLibrary::Open(const std::filesystem::
     for (const CatalogEntry& row : rows) {
       if (row.kind != wanted || row.status == AssetStatus::kFailed || !row.file.has_value()) continue;
       // Catalog rows are untrusted: a file must stay inside its assets directory.
-      const std::filesystem::path relative = std::filesystem::path(*row.file).lexically_normal();
-      if (relative.is_absolute() || relative.empty() || *relative.begin() == "..") {
-        return CorruptError(fmt::format("{}: row '{}': file '{}' leaves the assets directory", catalog_path.string(),
-                                        row.key, *row.file));
-      }
-      AssetEntry e{row.key, std::filesystem::absolute(dirs[d] / relative), row.output_xxh64.value_or(0),
-                   row.triangles};
+      Result<std::filesystem::path> file = files::ResolveInside(dirs[d], *row.file);
+      if (!file.ok()) return file.status().WithContext(fmt::format("{}: row '{}'", catalog_path.string(), row.key));
+      AssetEntry e{row.key, std::move(file).value(), row.output_xxh64.value_or(0), row.triangles};
       (d == 0 ? lib->models_ : lib->rooms_).push_back(std::move(e));
     }
   }

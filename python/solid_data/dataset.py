@@ -111,6 +111,20 @@ def _check_file(connection: sqlite3.Connection, kind: str, path: Path) -> None:
                          f"(application_id {application_id:#x}, user_version {user_version})")
 
 
+def _resolve_inside(root: Path, relative: object, where: str) -> Path:
+    """``root / relative`` for a path read from the dataset's own files, which must lead
+    to something inside ``root``: an absolute path, ``..`` or a symbolic link that leaves
+    the dataset directory is refused (ValueError naming ``where``)."""
+    if not isinstance(relative, str) or not relative or "\0" in relative or os.path.isabs(relative):
+        raise ValueError(f"{where}: file {relative!r} is not a path relative to {root}")
+    real_root = root.resolve()
+    # resolve() follows symbolic links and folds "..", as opening the file would.
+    path = (real_root / relative).resolve()
+    if real_root not in path.parents:
+        raise ValueError(f"{where}: file {relative!r} leads out of {root}")
+    return path
+
+
 class Dataset:
     """A rendered dataset directory: ``manifest.json``, ``index.sqlite``, shards and query shards.
 
@@ -131,8 +145,13 @@ class Dataset:
         index = _read_only(index_path, immutable=False)
         try:
             _check_file(index, "index", index_path)
-            self._shard_files = dict(index.execute("SELECT shard_index, file FROM shards"))
-            self._query_shard_files = dict(index.execute("SELECT shard_index, file FROM query_shards"))
+            # Index rows are data: each file must lie inside the dataset directory.
+            self._shard_files = {
+                k: _resolve_inside(self.root, f, f"{index_path}: shards row {k}")
+                for k, f in index.execute("SELECT shard_index, file FROM shards")}
+            self._query_shard_files = {
+                k: _resolve_inside(self.root, f, f"{index_path}: query_shards row {k}")
+                for k, f in index.execute("SELECT shard_index, file FROM query_shards")}
             rows = index.execute(
                 "SELECT model_key, query_shard_index, view_count FROM models ORDER BY model_key").fetchall()
             occurrences = index.execute(
@@ -168,7 +187,7 @@ class Dataset:
             files = self._shard_files if kind == "shard" else self._query_shard_files
             if shard_index not in files:
                 raise KeyError(f"{kind} shard {shard_index} is not in {self.root / 'index.sqlite'}")
-            path = self.root / files[shard_index]
+            path = files[shard_index]
             connection = _read_only(path, immutable=True)
             _check_file(connection, kind, path)
             local.connections[key] = connection

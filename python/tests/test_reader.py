@@ -2,7 +2,9 @@ import json
 import multiprocessing
 import pickle
 import re
+import shutil
 import sqlite3
+import tempfile
 import unittest
 from pathlib import Path
 
@@ -113,6 +115,23 @@ class ReaderTest(unittest.TestCase):
         copy = pickle.loads(pickle.dumps(self.ds))
         self.assertEqual(copy.image(image_id).data, self.ds.image(image_id).data)
         copy.close()
+
+    def test_refuses_index_rows_that_lead_out_of_the_dataset(self):
+        outside = Path(self.root).parent / "elsewhere.sqlite"
+        cases = {"absolute": str(outside), "dotdot": "shards/../../elsewhere.sqlite", "symlink": "shards/link.sqlite"}
+        for name, file in cases.items():
+            with self.subTest(name), tempfile.TemporaryDirectory() as scratch:
+                copy = Path(scratch) / "ds"
+                shutil.copytree(self.root, copy, symlinks=True)
+                if name == "symlink":
+                    (copy / "shards" / "link.sqlite").symlink_to(outside)
+                with sqlite3.connect(copy / "index.sqlite") as index:
+                    row = index.execute("SELECT MIN(shard_index) FROM shards").fetchone()[0]
+                    index.execute("UPDATE shards SET file = ? WHERE shard_index = ?", (file, row))
+                index.close()
+                with self.assertRaisesRegex(ValueError, rf"index.sqlite: shards row {row}: file .* leads out of|"
+                                                        rf"index.sqlite: shards row {row}: file .* is not a path"):
+                    Dataset(copy)
 
     def test_rejects_what_is_not_a_dataset(self):
         with self.assertRaises(FileNotFoundError):

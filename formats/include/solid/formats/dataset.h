@@ -75,7 +75,9 @@ struct ShardFile {
 };
 struct ShardListing {
   std::vector<ShardFile> targets, queries;  // sorted by index
-  std::vector<std::filesystem::path> unexpected;  // files that are neither ours nor temporaries
+  // Files that are neither ours nor temporaries, and shard names that are symbolic links
+  // leading out of the dataset directory (never opened).
+  std::vector<std::filesystem::path> unexpected;
 };
 Result<ShardListing> ListShards(const std::filesystem::path& root);
 

@@ -1,10 +1,12 @@
 // Atomic publication of files (write to a temporary sibling, sync,
-// rename) so that a reader never sees a partial file, whatever kills the writer.
+// rename) so that a reader never sees a partial file, whatever kills the writer;
+// and confinement of paths that come from data to the directory they belong to.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "solid/formats/status.h"
@@ -30,6 +32,18 @@ Status WriteFileAtomically(const std::filesystem::path& path, std::span<const ui
 
 // Reads a whole file, refusing more than max_bytes.
 Result<std::vector<uint8_t>> ReadFile(const std::filesystem::path& path, uint64_t max_bytes);
+
+// Lexically (no file system access): whether `path`, once normalised, is `root` or lies
+// below it. Both should be absolute, or both relative to the same directory.
+bool IsInside(const std::filesystem::path& path, const std::filesystem::path& root);
+
+// A path read from untrusted data (a catalog row, an index row) that must name something
+// inside `root`, resolved: root / relative, normalised. kCorrupt, naming `relative` and
+// the reason, when `relative` is empty, absolute, has a root name, leaves `root` through
+// "..", or names an existing file whose real path (symbolic links followed) lies outside
+// the real path of `root`. A path that does not exist yet passes on its lexical form;
+// its reader then fails with kNotFound. Callers add the row to the message.
+Result<std::filesystem::path> ResolveInside(const std::filesystem::path& root, std::string_view relative);
 
 // XXH64 and size of a whole file, streamed.
 struct FileDigest {
