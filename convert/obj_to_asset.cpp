@@ -17,6 +17,8 @@
 #include <utility>
 
 #include "solid/formats/checksum.h"
+#include "solid/formats/files.h"
+#include "solid/formats/image_codec.h"
 
 namespace solid::convert {
 // The asset model and its glb codec live in formats (render reads them too).
@@ -82,11 +84,6 @@ std::string AsciiLower(std::string s) {
 }
 
 fs::path WithoutTrailingSeparator(fs::path p) { return p.has_filename() || !p.has_relative_path() ? p : p.parent_path(); }
-
-bool IsInside(const fs::path& path, const fs::path& root) {
-  const fs::path relative = WithoutTrailingSeparator(path).lexically_relative(WithoutTrailingSeparator(root));
-  return !relative.empty() && *relative.begin() != "..";
-}
 
 // "/x", "//server/x", "C:x", "C:/x" and "file:///x" (after '\' became '/').
 bool IsAbsoluteOrUri(std::string_view path) {
@@ -490,7 +487,7 @@ class Builder {
     std::error_code ec;
     const fs::path root = WithoutTrailingSeparator(fs::absolute(options_.confine_root, ec).lexically_normal());
     fs::path target = (fs::absolute(options_.mtl_dir, ec) / written).lexically_normal();
-    if (!IsInside(target, root)) return RejectTexture(where, "texture_path_rejected", "leaves the model folder");
+    if (!files::IsInside(target, root)) return RejectTexture(where, "texture_path_rejected", "leaves the model folder");
     if (!fs::exists(target, ec)) {
       const std::optional<fs::path> match = FindIgnoringCase(target);
       if (!match) return MissingTexture(where, "no such file");
@@ -500,7 +497,7 @@ class Builder {
     }
     // Checked again on the real path: a symbolic link inside the folder may point anywhere.
     const fs::path real = fs::canonical(target, ec);
-    if (ec || !IsInside(real, fs::weakly_canonical(root, ec))) {
+    if (ec || !files::IsInside(real, fs::weakly_canonical(root, ec))) {
       return RejectTexture(where, "texture_path_rejected", "leaves the model folder through a symbolic link");
     }
     const bool validate_only = options_.textures == TextureMode::kValidateOnly;
@@ -521,6 +518,17 @@ class Builder {
     const std::optional<std::string> mime_type = ImageMimeType(*bytes);
     if (!mime_type) return RejectTexture(where, "unsupported_texture", "neither PNG nor JPEG");
     if (validate_only) return std::nullopt;
+    // The renderer decodes what is embedded: refuse a decompression bomb here, where
+    // the warning names the file, rather than failing every image that draws the model.
+    const ImageFormat format = *mime_type == "image/png" ? ImageFormat::kPng : ImageFormat::kJpeg;
+    Result<ImageHeader> header = ReadImageHeader(*bytes, format, {UINT32_MAX, UINT64_MAX});
+    if (!header.ok()) return RejectTexture(where, "unsupported_texture", header.status().message());
+    if (header->width > kTextureLimits.max_side || header->height > kTextureLimits.max_side ||
+        uint64_t{header->width} * header->height > kTextureLimits.max_pixels) {
+      return RejectTexture(where, "texture_too_large",
+                           fmt::format("{}x{} pixels, over the limits of {} per side and {} pixels", header->width,
+                                       header->height, kTextureLimits.max_side, kTextureLimits.max_pixels));
+    }
     auto [it, inserted] =
         texture_index_of_file_.emplace(real.string(), static_cast<uint32_t>(result_.asset.textures.size()));
     if (inserted) {

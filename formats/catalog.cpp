@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "solid/formats/checksum.h"
+#include "solid/formats/json_schema.h"
 #include "sqlite_schema.h"
 #include "sqlite_util.h"
 
@@ -28,8 +29,11 @@ Result<AssetStatus> ParseAssetStatus(std::string_view s) {
 }
 
 Result<nlohmann::json> ParseJsonColumn(const Stmt& s, int col, std::string_view where) {
-  nlohmann::json j = nlohmann::json::parse(s.Text(col), nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) return CorruptError(fmt::format("{}: {}: not JSON", where, s.ColumnName(col)));
+  // The limits' nesting depth keeps a crafted row from exhausting the stack.
+  Result<nlohmann::json> j = json::ParseJson(s.Text(col), fmt::format("{}: {}", where, s.ColumnName(col)));
+  if (!j.ok() && j.status().code() == StatusCode::kParseError) {
+    return CorruptError(fmt::format("{}: {}: not JSON", where, s.ColumnName(col)));
+  }
   return j;
 }
 

@@ -506,6 +506,7 @@ class GltfReader {
   const json& root_;
   std::span<const uint8_t> bin_;
   bool has_bin_;
+  uint64_t vertices_ = 0, triangles_ = 0;  // over the primitives read so far
   const json empty_ = json::array();
   const json *accessors_ = nullptr, *views_ = nullptr, *buffers_ = nullptr, *images_ = nullptr;
   size_t num_materials_ = 0, num_textures_ = 0;
@@ -694,6 +695,22 @@ Result<Primitive> GltfReader::ReadPrimitive(const json& primitive) {
     SOLID_ASSIGN_OR_RETURN(s.accessor, Accessor(*attributes, s.name));
   }
   if (semantics[0].accessor == nullptr) return ParseError("no POSITION attribute");
+  // Charged on the accessors' counts before anything is decoded (decoded data must match
+  // them). A mesh that many nodes share is charged per node: each node gets a copy.
+  SOLID_ASSIGN_OR_RETURN(const uint64_t claimed_vertices, GetUint(*semantics[0].accessor, "count"));
+  uint64_t claimed_indices = claimed_vertices;
+  if (Find(primitive, "indices") != nullptr) {
+    SOLID_ASSIGN_OR_RETURN(const uint32_t i, GetIndex(primitive, "indices", accessors_->size(), "accessors"));
+    if (!(*accessors_)[i].is_object()) return ParseError(fmt::format("accessors[{}]: not an object", i));
+    SOLID_ASSIGN_OR_RETURN(claimed_indices, GetUint((*accessors_)[i], "count"));
+  }
+  if (claimed_vertices > kMaxGlbVertices - vertices_ || claimed_indices / 3 > kMaxGlbTriangles - triangles_) {
+    return LimitExceededError(fmt::format("{} more vertices and {} more triangles make more than the limits of {} "
+                                          "vertices and {} triangles per file",
+                                          claimed_vertices, claimed_indices / 3, kMaxGlbVertices, kMaxGlbTriangles));
+  }
+  vertices_ += claimed_vertices;
+  triangles_ += claimed_indices / 3;
 
   Primitive p;
   if (Find(primitive, "material") != nullptr) {

@@ -112,6 +112,14 @@ Result<std::vector<uint8_t>> EncodeImage(const Image8& image, ImageFormat format
   return Encode(FileNameFor(format), spec, image.pixels.data());
 }
 
+Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  SOLID_ASSIGN_OR_RETURN(auto reader, OpenChecked(FileNameFor(format), &proxy, limits));
+  const OIIO::ImageSpec& spec = reader->spec();
+  return ImageHeader{static_cast<uint32_t>(spec.width), static_cast<uint32_t>(spec.height),
+                     static_cast<uint32_t>(spec.nchannels)};
+}
+
 Result<Image8> DecodeImage(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   std::string name = FileNameFor(format);

@@ -275,6 +275,11 @@ Result<InstanceRecord> ParseInstance(const Stmt& stmt, const std::string& file, 
   InstanceRecord in;
   SOLID_ASSIGN_OR_RETURN(in.image_id, r.Int(1, "image_id", 0));
   SOLID_ASSIGN_OR_RETURN(int64_t ordinal, r.Int(2, "ordinal", 0, INT32_MAX));
+  if (ordinal >= kMaxInstancesPerImage) {
+    return LimitExceededError(fmt::format("{}: instances row {}: ordinal {}: more than the limit of {} instances per "
+                                          "image",
+                                          file, stmt.Int(0), ordinal, kMaxInstancesPerImage));
+  }
   in.ordinal = static_cast<int32_t>(ordinal);
   SOLID_ASSIGN_OR_RETURN(in.model_key, r.Text(3, "model_key", kMaxKeyLength));
   SOLID_ASSIGN_OR_RETURN(auto visible, r.Checked(4, 5, "visible_rle", policy, true));
@@ -411,6 +416,11 @@ Status ShardWriter::AddInstance(const InstanceRecord& in) {
   }
   if (in.model_key.empty() || in.model_key.size() > kMaxKeyLength) {
     return InvalidArgumentError(where + ": model_key must have 1.." + std::to_string(kMaxKeyLength) + " bytes");
+  }
+  if (in.ordinal < 0 || in.ordinal >= kMaxInstancesPerImage) {
+    return LimitExceededError(
+        fmt::format("{}: ordinal outside [0, {}): the limit is {} instances per image", where, kMaxInstancesPerImage,
+                    kMaxInstancesPerImage));
   }
   Stmt& s = *impl_->insert_instance;
   std::vector<uint8_t> pose = AffineBytes(in.world_from_object);

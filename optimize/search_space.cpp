@@ -224,6 +224,7 @@ Result<SearchSpace> SearchSpace::Load(const std::filesystem::path& path) {
   json::ParseLimits limits;
   limits.max_bytes = kMaxSpaceBytes;
   limits.max_depth = kMaxSpaceDepth;
+  limits.max_string_length = json::kMaxConfigStringBytes;
   SOLID_ASSIGN_OR_RETURN(nlohmann::json document, json::ParseJson(text, source, limits));
   SOLID_ASSIGN_OR_RETURN(SearchSpace space, Parse(document, text, source));
   if (space.start_params_ && space.start_params_->is_relative()) {

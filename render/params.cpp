@@ -17,6 +17,7 @@
 
 #include "solid/formats/files.h"
 #include "solid/formats/json_schema.h"
+#include "solid/formats/records.h"
 #include "solid/formats/schemas.h"
 
 namespace solid::render {
@@ -89,7 +90,7 @@ void ForEachKnob(Params& p, Visitor&& visit) {
   visit("/camera/clearance_m", p.camera_clearance_m, kNonNegativeM);
   visit("/camera/clearance_rays", p.camera_clearance_rays, Bounds{2, 1024});
   visit("/camera/max_draws", p.camera_max_draws, Bounds{1, 1e7});
-  visit("/objects/attempts", p.attempts, Bounds{0, 10000});
+  visit("/objects/attempts", p.attempts, Bounds{0, kMaxInstancesPerImage});
   visit("/objects/reuse_prob", p.reuse_prob, kProbability);
   visit("/objects/max_pose_tries", p.max_pose_tries, Bounds{1, 1000});
   visit("/objects/scale", p.scale);
@@ -378,6 +379,7 @@ Result<LayoutParams> LoadParamsFile(const std::filesystem::path& path) {
   json::ParseLimits limits;
   limits.max_bytes = kMaxParamsBytes;
   limits.max_depth = kMaxParamsDepth;
+  limits.max_string_length = json::kMaxConfigStringBytes;
   SOLID_ASSIGN_OR_RETURN(nlohmann::json document, json::ParseJson(text, source, limits));
   return ParseParams(document, text, source);
 }

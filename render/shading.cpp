@@ -206,7 +206,7 @@ Result<DecodedTextures> DecodeTextures(const std::vector<gltf::Texture>& texture
     } else {
       return ParseError(fmt::format("{}: texture {} ({}): unsupported type '{}'", where, t, in.name, in.mime_type));
     }
-    Result<Image8> decoded = DecodeImage(in.bytes, format);
+    Result<Image8> decoded = DecodeImage(in.bytes, format, kTextureLimits);
     if (!decoded.ok()) return decoded.status().WithContext(fmt::format("{}: texture {} ({})", where, t, in.name));
     const Image8& img = *decoded;
     if (img.channels < 1 || img.channels > 4 || img.width == 0 || img.height == 0) {

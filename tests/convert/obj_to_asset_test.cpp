@@ -13,6 +13,7 @@
 #include <tuple>
 #include <vector>
 
+#include "fixtures/crafted_images.h"
 #include "formats/test_util.h"
 #include "solid/formats/glb.h"
 #include "solid/formats/image_codec.h"
@@ -626,6 +627,17 @@ TEST_F(ObjTextureTest, TooLargeTextureIsRejected) {
   const auto r = BuildWith("../images/big.png", options);
   ASSERT_BUILT(r);
   EXPECT_THAT(WarningCodes(*r), ElementsAre("texture_too_large"));
+  EXPECT_EQ(r->counts.textures_rejected, 1u);
+  EXPECT_THAT(r->asset.textures, IsEmpty());
+}
+
+TEST_F(ObjTextureTest, PngHeaderClaiming100000x100000IsRejectedBeforeDecoding) {
+  Write(images_ / "bomb.png", fixtures::PngClaimingSize(100000, 100000));
+  const auto r = BuildWith("../images/bomb.png");
+  ASSERT_BUILT(r);
+  EXPECT_THAT(WarningCodes(*r), ElementsAre("texture_too_large"));
+  EXPECT_THAT(r->warnings[0].message, HasSubstr("map_Kd '../images/bomb.png': 100000x100000 pixels, over the limits "
+                                                "of 8192 per side and 33554432 pixels"));
   EXPECT_EQ(r->counts.textures_rejected, 1u);
   EXPECT_THAT(r->asset.textures, IsEmpty());
 }

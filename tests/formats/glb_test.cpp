@@ -557,6 +557,18 @@ TEST(GltfReader, RejectsBadIndicesAndLengths) {
   ExpectError(Pack(zeros), StatusCode::kCorrupt, {"meshes[0].primitives[1]: KHR_draco_mesh_compression", "Draco"});
 }
 
+TEST(GltfReader, AccessorCountsOverTheLimitsAreRefusedBeforeDecoding) {
+  const Glb good = Unpack(Write(CubeAsset()));
+  const json& primitive = good.gltf["meshes"][0]["primitives"][0];
+  Glb many_vertices = good;
+  many_vertices.gltf["accessors"][primitive["attributes"]["POSITION"].get<size_t>()]["count"] = kMaxGlbVertices + 1;
+  ExpectError(Pack(many_vertices), StatusCode::kLimitExceeded,
+              {"meshes[0].primitives[0]", "limits of 50000000 vertices and 50000000 triangles per file"});
+  Glb many_triangles = good;
+  many_triangles.gltf["accessors"][primitive["indices"].get<size_t>()]["count"] = 3 * (kMaxGlbTriangles + 1);
+  ExpectError(Pack(many_triangles), StatusCode::kLimitExceeded, {"meshes[0].primitives[0]", "50000001 more triangles"});
+}
+
 // Seeded byte flips, anywhere and within the Draco streams: any outcome but a crash
 // (ASan builds check for out-of-bounds reads too).
 TEST(GltfReader, SurvivesRandomByteFlips) {

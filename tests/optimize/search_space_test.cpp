@@ -5,6 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "formats/test_util.h"
 #include "solid/formats/json_schema.h"
 
@@ -64,6 +67,18 @@ TEST(SearchSpace, UnknownKeysAreErrorsWithTheirLocation) {
   space = Parse(R"({"free": {}, "strat": {}})");
   ASSERT_FALSE(space.ok());
   EXPECT_THAT(space.status().message(), HasSubstr("strat"));
+}
+
+TEST(SearchSpace, StringsLongerThanTheLimitAreRefused) {
+  solid::testing::TempDir dir;
+  const std::filesystem::path path = dir.path() / "space.json";
+  std::ofstream(path) << R"({"start": {"params": ")" << std::string(json::kMaxConfigStringBytes + 1, 'p')
+                      << R"("}, "free": {}})";
+  Result<SearchSpace> space = SearchSpace::Load(path);
+  ASSERT_FALSE(space.ok());
+  EXPECT_EQ(space.status().code(), StatusCode::kLimitExceeded) << space.status().ToString();
+  EXPECT_THAT(space.status().message(), HasSubstr(path.string() + ":1:"));
+  EXPECT_THAT(space.status().message(), HasSubstr("limit of 4096 bytes"));
 }
 
 TEST(SearchSpace, BadBoundsAndTransformsAreErrors) {

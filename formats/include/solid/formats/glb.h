@@ -41,6 +41,11 @@ Result<std::vector<uint8_t>> WriteGlb(const Asset& asset, const DracoOptions& op
 // kLimitExceeded past 4 GiB.
 Result<std::vector<uint8_t>> PackGlb(const nlohmann::json& gltf, std::span<const uint8_t> bin);
 
+// Totals over all primitives of all nodes that ReadGlb accepts (the OBJ reader's
+// defaults). They are checked on the accessor counts before any Draco stream is decoded.
+inline constexpr uint64_t kMaxGlbVertices = 50'000'000;
+inline constexpr uint64_t kMaxGlbTriangles = 50'000'000;
+
 // Reads a .glb written by WriteGlb (or any glb whose meshes are Draco-compressed or
 // plain), decoding Draco, into an Asset: for round-trip and fidelity checks, and for
 // `solid inspect` of an assets directory. Untrusted input: errors, never crashes;
@@ -53,7 +58,8 @@ Result<std::vector<uint8_t>> PackGlb(const nlohmann::json& gltf, std::span<const
 // kCorrupt (indices, lengths, Draco streams, accessor counts that disagree with
 // the Draco data), kUnsupportedVersion (glTF 1, unknown required extensions,
 // external buffers or images, sparse accessors, non-triangle modes),
-// kLimitExceeded (JSON nested deeper than 64). Draco 1.5.5 itself may allocate a
+// kLimitExceeded (JSON nested deeper than 64, more than kMaxGlbVertices or
+// kMaxGlbTriangles in all). Draco 1.5.5 itself may allocate a
 // few hundred MB on a corrupt stream before it fails.
 Result<Asset> ReadGlb(std::span<const uint8_t> bytes, std::string_view name);
 

@@ -18,6 +18,20 @@ struct ImageLimits {
   uint64_t max_pixels = uint64_t{64} << 20;
 };
 
+// Textures of 3D models, checked when `solid convert` embeds them and when the renderer
+// decodes them: at most 8192 per side and 2^25 pixels (128 MiB decoded as RGBA).
+inline constexpr ImageLimits kTextureLimits{8192, uint64_t{1} << 25};
+
+struct ImageHeader {
+  uint32_t width = 0, height = 0, channels = 0;
+};
+
+// Reads the header of encoded bytes (no pixel is decoded) and checks it against the
+// limits: kLimitExceeded naming the claimed size and the limits, kParseError when the
+// bytes are not an image of `format`.
+Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat format,
+                                    const ImageLimits& limits = {});
+
 // 8-bit, row-major, interleaved channels, row 0 at the top.
 struct Image8 {
   uint32_t width = 0, height = 0, channels = 0;

@@ -30,6 +30,10 @@ struct ParseLimits {
   size_t max_string_length = size_t{1} << 20;
 };
 
+// Longest string or key in the small JSON files people and tools write (params files,
+// search spaces, dataset manifests): nothing in their schemas needs more.
+inline constexpr size_t kMaxConfigStringBytes = 4096;
+
 // Parses untrusted JSON text. Errors read "name:line:column: message" (column counts code
 // points, both 1-based). Syntax errors and duplicate object keys are kParseError, broken
 // limits kLimitExceeded.

@@ -45,6 +45,11 @@ struct ImageRecord {
   std::optional<std::string> room_key;
 };
 
+// Instances of one image: ordinals lie in [0, kMaxInstancesPerImage). Writers and
+// readers of shards refuse more (kLimitExceeded), and so do layout params
+// (objects.attempts, each of which places at most one object).
+inline constexpr int32_t kMaxInstancesPerImage = 10000;
+
 struct InstanceRecord {
   int64_t image_id = 0;
   int32_t ordinal = 0;  // render-id order within the image
