@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "solid/formats/status.h"
+#include "solid/render/assets.h"
 #include "solid/render/params.h"
 
 namespace solid::cli {
@@ -40,6 +41,10 @@ void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags);
 // The params file or preset, with --resolution applied; kInvalidArgument when neither
 // is given or the resolution is malformed.
 Result<render::LayoutParams> ResolveParams(const ParamsFlags& flags);
+
+// --asset-cache-mb N: the memory cap of the decoded-asset cache, MiB (default 2048).
+void AddAssetCacheFlag(CLI::App* cmd, uint64_t* megabytes);
+render::AssetLibraryOptions AssetLibraryOptionsFor(uint64_t megabytes);
 
 // Prints "solid: <message>" on stderr and returns the exit code for the status.
 int Fail(const Status& status);

@@ -39,6 +39,20 @@ Result<render::LayoutParams> ResolveParams(const ParamsFlags& f) {
   return params;
 }
 
+void AddAssetCacheFlag(CLI::App* cmd, uint64_t* megabytes) {
+  cmd->add_option("--asset-cache-mb", *megabytes,
+                  "Memory cap of decoded models and rooms (meshes, BVHs, textures), MiB; least recently used are "
+                  "dropped first")
+      ->capture_default_str()
+      ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 30));
+}
+
+render::AssetLibraryOptions AssetLibraryOptionsFor(uint64_t megabytes) {
+  render::AssetLibraryOptions options;
+  options.cache_bytes = megabytes << 20;
+  return options;
+}
+
 int Fail(const Status& status) {
   fmt::print(stderr, "solid: {}\n", status.message());
   return ExitCodeFor(status);

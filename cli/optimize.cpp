@@ -22,6 +22,7 @@ struct OptimizeFlags {
   double tol_occlusion = optimize::DefaultTolerance(Metric::kOcclusion);
   double tol_scale = optimize::DefaultTolerance(Metric::kSmall);
   optimize::OptimizeOptions options;
+  uint64_t asset_cache_mb = 2048;
   bool json = false;
 };
 
@@ -113,7 +114,8 @@ int RunOptimize(OptimizeFlags& f) {
     std::tie(o.eval_width, o.eval_height) = wh;
   }
   SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
-                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
+                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms,
+                                                         AssetLibraryOptionsFor(f.asset_cache_mb)));
   o.on_evaluation = [](const optimize::TraceRow& t) {
     const ProxyMetrics& m = t.metrics;
     fmt::print(stderr, "eval {:>4} r{} {:<6} objective {:>9.3f}  count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%  {:6.1f} s\n",
@@ -226,6 +228,7 @@ Command AddOptimize(CLI::App& app) {
   cmd->add_option("--fix", f->fix, "Fix these knobs at the start's value (comma-separated)")->delimiter(',');
   cmd->add_option("--assets", f->assets, "Assets directory with the models")->required();
   cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  AddAssetCacheFlag(cmd, &f->asset_cache_mb);
   cmd->add_option("--out,-o", f->out, "Params file to write (usable by solid sample --params)")->required();
   cmd->add_option("--trace", f->trace, "Write every evaluation to this file (.csv, else JSON)");
   cmd->add_option("--target-row", f->target_row, "Targets of a Table-1 row (a preset name)");

@@ -17,6 +17,7 @@ struct RenderFlags {
   int64_t images = 1000, shard_size = 256, shard = -1;
   uint64_t seed = 1;
   int jobs = 0, quality = 90, samples_per_pixel = 4, query_size = 224;
+  uint64_t asset_cache_mb = 2048;
   bool depth = false, no_queries = false, repair = false, json = false;
 };
 
@@ -74,7 +75,8 @@ int Run(const RenderFlags& f) {
   SOLID_ASSIGN_OR_RETURN_EXIT(auto shards, ShardRange(f, &shard_source));
   SOLID_ASSIGN_OR_RETURN_EXIT(ImageFormat format, ParseImageFormat(f.format));
   SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
-                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
+                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms,
+                                                         AssetLibraryOptionsFor(f.asset_cache_mb)));
   SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
                               render::LayoutSampler::Create(params, library));
   render::RenderOptions options;
@@ -95,6 +97,8 @@ int Run(const RenderFlags& f) {
   options.query_views.samples_per_pixel = f.samples_per_pixel;
   options.queries = !f.no_queries;
   options.repair = f.repair;
+  // Decoded textures are a second cache of the same size (the glb bytes count in the first).
+  options.texture_cache_bytes = f.asset_cache_mb << 20;
   if (shards && !f.json) {
     fmt::print(stderr, "solid: shards {}-{} (from {})\n", shards->first, shards->second, shard_source);
   }
@@ -123,6 +127,7 @@ Command AddRender(CLI::App& app) {
   AddParamsFlags(cmd, &f->params);
   cmd->add_option("--assets", f->assets, "Assets directory with the models (from `solid convert`)")->required();
   cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  AddAssetCacheFlag(cmd, &f->asset_cache_mb);
   cmd->add_option("--out,-o", f->out, "Dataset directory (created, or resumed when its manifest agrees)")->required();
   cmd->add_option("--images,-n", f->images, "Images in the dataset")->capture_default_str()->check(CLI::Range(
       int64_t{1}, int64_t{1} << 40));

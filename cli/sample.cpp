@@ -18,6 +18,7 @@ struct SampleFlags {
   ParamsFlags params;
   std::string assets, rooms, export_path;
   int64_t layouts = 100, first = 0, export_index = -1;
+  uint64_t asset_cache_mb = 2048;
   uint64_t seed = 1;
   int jobs = 0;
   bool json = false;
@@ -58,7 +59,8 @@ void PrintReport(const render::SampleReport& r, const render::LayoutParams& p) {
 int Run(const SampleFlags& f) {
   SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, ResolveParams(f.params));
   SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
-                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
+                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms,
+                                                         AssetLibraryOptionsFor(f.asset_cache_mb)));
   SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
                               render::LayoutSampler::Create(params, library));
   if (f.export_index >= 0) {
@@ -105,6 +107,7 @@ Command AddSample(CLI::App& app) {
   AddParamsFlags(cmd, &f->params);
   cmd->add_option("--assets", f->assets, "Assets directory with the models (from `solid convert`)")->required();
   cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  AddAssetCacheFlag(cmd, &f->asset_cache_mb);
   cmd->add_option("--layouts,-n", f->layouts, "Number of layouts")->capture_default_str()->check(CLI::Range(1, 100000000));
   cmd->add_option("--first", f->first, "Index of the first layout")->capture_default_str();
   cmd->add_option("--seed", f->seed, "Dataset seed: layout i depends only on (params, assets, seed, i)")

@@ -116,7 +116,7 @@ void AddStages(StageTimes* total, const StageTimes& s) {
 class Renderer {
  public:
   Renderer(const LayoutSampler& sampler, const RenderOptions& options, const Manifest& manifest)
-      : sampler_(sampler), options_(options), manifest_(manifest), paths_(options.out) {}
+      : sampler_(sampler), options_(options), manifest_(manifest), paths_(options.out), textures_(options.texture_cache_bytes) {}
 
   // Images [first, end) of shard `shard` into its file; workers render ahead of the
   // writer by at most a window of images, so memory does not grow with the shard.

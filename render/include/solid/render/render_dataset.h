@@ -47,6 +47,7 @@ struct RenderOptions {
   // Re-render target and query shards that fail ValidateShardFile; otherwise a present
   // shard is trusted and skipped.
   bool repair = false;
+  uint64_t texture_cache_bytes = uint64_t{1} << 30;  // cap of decoded textures (shade.h TextureCache)
   ProgressCallback progress;  // in images
 };
 
