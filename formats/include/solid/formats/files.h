@@ -25,8 +25,18 @@ Status SyncDirectory(const std::filesystem::path& dir);
 // rename fails with kAlreadyExists if final exists (two writers of one shard).
 Status Publish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace);
 
-// Whole-file write through a synced temporary sibling.
+// Whole-file write through a synced temporary sibling. On error the file at path is as it
+// was, and no temporary is left.
 Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes);
+
+// The outputs of one command: none is renamed into place before all are written and
+// synced, so a full disk changes none of them. Then they are renamed in order; a failed
+// rename (rare, after the writes succeeded) leaves those before it published.
+struct FileContent {
+  std::filesystem::path path;
+  std::span<const uint8_t> bytes;
+};
+Status WriteFilesAtomically(std::span<const FileContent> outputs);
 
 // Reads a whole file, refusing more than max_bytes.
 Result<std::vector<uint8_t>> ReadFile(const std::filesystem::path& path, uint64_t max_bytes);
