@@ -58,8 +58,7 @@ class JsonStream {
   Status Publish() {
     SOLID_RETURN_IF_ERROR(Flush());
     if (std::fclose(file_.release()) != 0) return IoError(fmt::format("{}: close failed", temp_.string()));
-    SOLID_RETURN_IF_ERROR(files::SyncFile(temp_));
-    SOLID_RETURN_IF_ERROR(files::Publish(temp_, final_, /*replace=*/true));
+    SOLID_RETURN_IF_ERROR(files::SyncAndPublish(temp_, final_, /*replace=*/true));
     published_ = true;
     return Status::Ok();
   }

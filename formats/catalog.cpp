@@ -100,11 +100,10 @@ Result<Catalog> Catalog::OpenForWriting(const fs::path& path) {
     files::RemoveStaleTemps(path);
     const fs::path temp = files::TempPathFor(path);
     Status created = [&]() -> Status {
-      SOLID_ASSIGN_OR_RETURN(Db db, Db::Open(temp, sqlite::OpenMode::kCreate));
+      SOLID_ASSIGN_OR_RETURN(Db db, Db::Open(temp, sqlite::OpenMode::kCreate, path.string()));
       SOLID_RETURN_IF_ERROR(sqlite::CreateSchema(db, "catalog.sql"));
       db.Close();
-      SOLID_RETURN_IF_ERROR(files::SyncFile(temp));
-      return files::Publish(temp, path, /*replace=*/false);
+      return files::SyncAndPublish(temp, path, /*replace=*/false);
     }();
     if (!created.ok()) fs::remove(temp, ec);
     // kAlreadyExists: another converter made it first, which is as good.

@@ -111,13 +111,6 @@ void RemoveStaleTemps(const std::filesystem::path& final_path) {
   }
 }
 
-Status SyncFile(const std::filesystem::path& path) {
-  Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-  if (fd.get() < 0) return WriteErrnoStatus("open for fsync", path, errno);
-  if (::fsync(fd.get()) != 0) return WriteErrnoStatus("fsync", path, errno);
-  return Status::Ok();
-}
-
 Status SyncDirectory(const std::filesystem::path& dir) {
   std::filesystem::path d = dir.empty() ? "." : dir;
   Fd fd(::open(d.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
@@ -139,6 +132,17 @@ Status Publish(const std::filesystem::path& temp, const std::filesystem::path& f
     ::unlink(temp.c_str());
   }
   return SyncDirectory(final_path.parent_path());
+}
+
+Status SyncAndPublish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace) {
+  Status s = [&]() -> Status {
+    Fd fd(::open(temp.c_str(), O_RDONLY | O_CLOEXEC));
+    if (fd.get() < 0) return WriteErrnoStatus("open the temporary sibling for fsync", final_path, errno);
+    if (::fsync(fd.get()) != 0) return WriteErrnoStatus("fsync", final_path, errno);
+    return Publish(temp, final_path, replace);
+  }();
+  if (!s.ok()) ::unlink(temp.c_str());
+  return s;
 }
 
 Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes) {

@@ -27,9 +27,9 @@ std::string Cause(sqlite3* db, int rc, std::string_view message) {
 
 }  // namespace
 
-Result<Db> Db::Open(const std::filesystem::path& path, OpenMode mode) {
+Result<Db> Db::Open(const std::filesystem::path& path, OpenMode mode, std::string_view name) {
   Db db;
-  db.name_ = path.string();
+  db.name_ = name.empty() ? path.string() : std::string(name);
   sqlite3* raw = nullptr;
   if (mode == OpenMode::kCreate && path != ":memory:") {
     // SQLite falls back to read-only when it cannot open for writing and drops the
@@ -42,7 +42,7 @@ Result<Db> Db::Open(const std::filesystem::path& path, OpenMode mode) {
   }
   int flags = SQLITE_OPEN_NOMUTEX;
   flags |= mode == OpenMode::kCreate ? (SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE) : SQLITE_OPEN_READONLY;
-  int rc = sqlite3_open_v2(db.name_.c_str(), &raw, flags, nullptr);
+  int rc = sqlite3_open_v2(path.c_str(), &raw, flags, nullptr);
   db.db_.reset(raw);
   if (rc != SQLITE_OK) {
     return IoError(fmt::format("{}: cannot open: {}", db.name_,

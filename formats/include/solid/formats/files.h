@@ -18,12 +18,15 @@ bool IsTempPath(const std::filesystem::path& path);
 // Removes "<final>.tmp-<this host>-<pid>-<n>" leftovers of writers that no longer run.
 void RemoveStaleTemps(const std::filesystem::path& final_path);
 
-Status SyncFile(const std::filesystem::path& path);
 Status SyncDirectory(const std::filesystem::path& dir);
 
 // Renames temp onto final and syncs the directory. With replace == false the
 // rename fails with kAlreadyExists if final exists (two writers of one shard).
 Status Publish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace);
+
+// Syncs temp, a finished temporary sibling of final_path (a database written in place),
+// and publishes it. On error temp is removed; messages name final_path.
+Status SyncAndPublish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace);
 
 // Whole-file write through a synced temporary sibling. On error the file at path is as it
 // was, and no temporary is left.
