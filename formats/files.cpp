@@ -14,6 +14,7 @@
 #include <memory>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -53,36 +54,53 @@ class Fd {
   Fd(const Fd&) = delete;
   Fd& operator=(const Fd&) = delete;
   int get() const { return fd_; }
+  int release() { return std::exchange(fd_, -1); }
 
  private:
   int fd_;
 };
 
 // Writes bytes to a new synced temporary sibling of path; on error nothing is left behind.
+// The messages name the final path, which is what the user asked for: the temporary is gone
+// by the time they read them.
 Result<std::filesystem::path> WriteTemporary(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
   std::filesystem::path temp = TempPathFor(path);
-  // The messages name the final path, which is what the user asked for; the temporary
-  // is gone by the time they read them.
-  auto fail = [&](std::string_view what, int err) {
-    Status s = WriteErrnoStatus(what, path, err);
-    ::unlink(temp.c_str());
-    return s;
-  };
   Fd fd(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
   if (fd.get() < 0) return WriteErrnoStatus("create a temporary sibling", path, errno);
-  size_t done = 0;
-  while (done < bytes.size()) {
-    ssize_t n = ::write(fd.get(), bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    // write() returns 0 only for a zero count, which the loop never asks for.
-    if (n <= 0) return fail("write", n < 0 ? errno : EIO);
-    done += static_cast<size_t>(n);
+  Status s = WriteAll(fd.get(), bytes, path);
+  if (s.ok() && ::fsync(fd.get()) != 0) s = WriteErrnoStatus("fsync", path, errno);
+  if (!s.ok()) {
+    ::unlink(temp.c_str());
+    return s;
   }
-  if (::fsync(fd.get()) != 0) return fail("fsync", errno);
   return temp;
 }
 
 }  // namespace
+
+Status WriteAll(int fd, std::span<const uint8_t> bytes, const std::filesystem::path& path) {
+  size_t done = 0;
+  while (done < bytes.size()) {
+    ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    // write() returns 0 only for a zero count, which the loop never asks for.
+    if (n <= 0) return WriteErrnoStatus("write", path, n < 0 ? errno : EIO);
+    done += static_cast<size_t>(n);
+  }
+  return Status::Ok();
+}
+
+Status WritePlainFile(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
+  Status s = [&]() -> Status {
+    Fd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+    if (fd.get() < 0) return WriteErrnoStatus("create", path, errno);
+    SOLID_RETURN_IF_ERROR(WriteAll(fd.get(), bytes, path));
+    if (::close(fd.release()) != 0) return WriteErrnoStatus("close", path, errno);
+    return Status::Ok();
+  }();
+  if (!s.ok()) ::unlink(path.c_str());
+  return s;
+}
 
 std::filesystem::path TempPathFor(const std::filesystem::path& final_path) {
   // The sequence number keeps two writers of one file in the same process apart.

@@ -33,7 +33,7 @@ using solid::testing::TempDir;
 
 constexpr int kExitIoError = 4;
 
-enum class Command { kConvert, kRender, kIndex, kOptimize };
+enum class Command { kConvert, kRender, kIndex, kOptimize, kExport };
 
 std::string_view CommandName(Command c) {
   switch (c) {
@@ -41,6 +41,7 @@ std::string_view CommandName(Command c) {
     case Command::kRender: return "Render";
     case Command::kIndex: return "Index";
     case Command::kOptimize: return "Optimize";
+    case Command::kExport: return "Export";
   }
   return "?";
 }
@@ -140,11 +141,13 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
       case Command::kRender:
       case Command::kIndex: return dir / "dataset";
       case Command::kOptimize: return dir / "fit";
+      case Command::kExport: return dir / "coco";
     }
     return dir;
   }
 
-  // What an earlier run left: some assets, the first shard, a whole dataset, an earlier fit.
+  // What an earlier run left: some assets, the first shard, a whole dataset (for index and
+  // export), an earlier fit.
   void MakePrior(const fs::path& dir) const {
     const std::string assets = render::testing::ProceduralAssetsDir().string();
     const fs::path out = Output(dir);
@@ -156,6 +159,7 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
         break;
       case Command::kRender: run = RunCommand(Shell(RenderArguments(out, {"--shard", "0"}))); break;
       case Command::kIndex: run = RunCommand(Shell(RenderArguments(out, {}))); break;
+      case Command::kExport: run = RunCommand(Shell(RenderArguments(dir / "dataset", {}))); break;
       case Command::kOptimize: {
         fs::create_directories(out);
         const std::string earlier = "an earlier fit\n";
@@ -193,6 +197,10 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
                       (out / "params.json").string(), "--trace", (out / "trace.csv").string(), "--layouts", "12",
                       "--confirm-layouts", "12", "--max-evals", "3", "--max-seconds", "1000", "--rounds", "1",
                       "--eval-resolution", "64x48", "--seed", "5", "--jobs", "1"});
+      case Command::kExport:
+        // From the directory: annotations.json names the dataset as given, the same in every run.
+        return "cd " + ShellQuote(dir.string()) + " && " +
+               Shell({SOLID_CLI_BINARY, "export", "coco", "dataset", out.string()});
     }
     return {};
   }
@@ -205,6 +213,7 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
     switch (command()) {
       case Command::kConvert: return (out / "models").string() + "/*";
       case Command::kRender: return (out / "shards").string() + "/*";
+      case Command::kExport: return (out / "images").string() + "/*";
       case Command::kIndex:
       case Command::kOptimize: return out.string() + "/*";
     }
@@ -217,8 +226,9 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
     const char* asan = std::getenv("ASAN_OPTIONS");
     const std::string asan_options =
         (asan && *asan ? std::string(asan) + ":" : std::string()) + "verify_asan_link_order=0";
-    return "LD_PRELOAD=" + ShellQuote(SOLID_FAULT_INJECT_LIBRARY) + " SOLID_FAULT=" + ShellQuote(spec) +
-           " ASAN_OPTIONS=" + ShellQuote(asan_options) + " " + CommandLine(dir);
+    // Exported, as the command line may start with a cd.
+    return "export LD_PRELOAD=" + ShellQuote(SOLID_FAULT_INJECT_LIBRARY) + " SOLID_FAULT=" + ShellQuote(spec) +
+           " ASAN_OPTIONS=" + ShellQuote(asan_options) + "; " + CommandLine(dir);
   }
 
   // What two complete runs must share.
@@ -253,6 +263,10 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
       case Command::kOptimize:
         EXPECT_EQ(Snapshot(have).at("params.json"), Snapshot(want).at("params.json"));
         EXPECT_EQ(TraceWithoutSeconds(have / "trace.csv"), TraceWithoutSeconds(want / "trace.csv"));
+        break;
+      case Command::kExport:
+        EXPECT_EQ(Snapshot(have), Snapshot(want));
+        EXPECT_TRUE(Snapshot(have).count("annotations.json"));
         break;
     }
   }
@@ -297,6 +311,15 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
         break;
       }
       case Command::kOptimize: EXPECT_EQ(after, before); break;
+      case Command::kExport:
+        // Images written before the fault may stay (annotations.json, published last, is what
+        // makes an export): each must be whole.
+        EXPECT_FALSE(after.count("annotations.json"));
+        for (const auto& [name, digest] : after) {
+          ASSERT_TRUE(done.count(name)) << name << " is no output of an undisturbed run";
+          EXPECT_EQ(digest, done.at(name)) << name << " is incomplete";
+        }
+        break;
     }
   }
 };
@@ -334,7 +357,8 @@ std::string TestName(const ::testing::TestParamInfo<WriterFaults::ParamType>& in
 
 INSTANTIATE_TEST_SUITE_P(
     AllWriters, WriterFaults,
-    ::testing::Combine(::testing::Values(Command::kConvert, Command::kRender, Command::kIndex, Command::kOptimize),
+    ::testing::Combine(::testing::Values(Command::kConvert, Command::kRender, Command::kIndex, Command::kOptimize,
+                                         Command::kExport),
                        ::testing::ValuesIn(kFaults)),
     TestName);
 INSTANTIATE_TEST_SUITE_P(Rename, WriterFaults,

@@ -32,6 +32,14 @@ Status SyncAndPublish(const std::filesystem::path& temp, const std::filesystem::
 // was, and no temporary is left.
 Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes);
 
+// Writes all of bytes to fd, through short writes and EINTR; messages name path.
+Status WriteAll(int fd, std::span<const uint8_t> bytes, const std::filesystem::path& path);
+
+// Creates or truncates path and writes bytes, without sync or rename: for the many small
+// files of an output that another file publishes (an export's images, which annotations.json
+// names). On error the file is removed, so none is left half-written.
+Status WritePlainFile(const std::filesystem::path& path, std::span<const uint8_t> bytes);
+
 // The outputs of one command: none is renamed into place before all are written and
 // synced, so a full disk changes none of them. Then they are renamed in order; a failed
 // rename (rare, after the writes succeeded) leaves those before it published.
