@@ -72,9 +72,12 @@ Status Db::Exec(std::string_view sql) {
   if (rc == SQLITE_OK) return Status::Ok();
   std::string msg = Cause(db_.get(), sqlite3_extended_errcode(db_.get()), err ? err : sqlite3_errstr(rc));
   sqlite3_free(err);
-  StatusCode code = (rc & 0xFF) == SQLITE_CORRUPT || (rc & 0xFF) == SQLITE_NOTADB ? StatusCode::kCorrupt
-                    : (rc & 0xFF) == SQLITE_IOERR || (rc & 0xFF) == SQLITE_FULL ? StatusCode::kIoError
-                                                                                 : StatusCode::kInternal;
+  const int primary = rc & 0xFF;
+  StatusCode code = primary == SQLITE_CORRUPT || primary == SQLITE_NOTADB ? StatusCode::kCorrupt
+                    : primary == SQLITE_IOERR || primary == SQLITE_FULL || primary == SQLITE_CANTOPEN ||
+                            primary == SQLITE_READONLY || primary == SQLITE_PERM
+                        ? StatusCode::kIoError
+                        : StatusCode::kInternal;
   return Status(code, fmt::format("{}: {}", name_, msg));
 }
 
