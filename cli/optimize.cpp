@@ -127,13 +127,13 @@ int RunOptimize(OptimizeFlags& f) {
   params["$comment"] = fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
                                    report.all_met ? "met" : "NOT met");
   const std::string text = params.dump(2) + "\n";
-  if (Status s = files::WriteFileAtomically(f.out, std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size()));
-      !s.ok()) {
-    return Fail(s);
-  }
-  if (!f.trace.empty()) {
-    if (Status s = optimize::WriteTrace(report, f.trace); !s.ok()) return Fail(s);
-  }
+  const std::string trace = f.trace.empty() ? std::string() : optimize::TraceText(report, f.trace);
+  auto bytes = [](const std::string& t) { return std::span(reinterpret_cast<const uint8_t*>(t.data()), t.size()); };
+  // The trace first: should a rename fail between the two, the params file is the old one.
+  std::vector<files::FileContent> outputs;
+  if (!f.trace.empty()) outputs.push_back({f.trace, bytes(trace)});
+  outputs.push_back({f.out, bytes(text)});
+  if (Status s = files::WriteFilesAtomically(outputs); !s.ok()) return Fail(s);
   if (f.json) {
     std::cout << report.ToJson().dump(2) << "\n";
   } else {

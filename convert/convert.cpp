@@ -322,6 +322,9 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
   struct Finished {
     std::optional<CatalogEntry> entry;  // empty when up to date
     ItemOutcome outcome;
+    // The output directory refused a write: no fault of the asset, so no catalog row (a
+    // "failed" row would keep a rerun from converting it); the batch stops.
+    Status output_error;
   };
   std::mutex mu;
   std::condition_variable cv;
@@ -382,8 +385,15 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
     if (!glb.ok()) return fail({"write_error", fmt::format("{}: {}", target.string(), glb.status().message())});
     std::error_code dir_ec;
     fs::create_directories(target.parent_path(), dir_ec);
-    Status written = files::WriteFileAtomically(target, *glb);
-    if (!written.ok()) return fail({"write_error", written.message()});
+    if (dir_ec) {
+      f.output_error = IoError(fmt::format("{}: cannot create the directory: {}", target.parent_path().string(),
+                                           dir_ec.message()));
+      return f;
+    }
+    if (Status written = files::WriteFileAtomically(target, *glb); !written.ok()) {
+      f.output_error = std::move(written);
+      return f;
+    }
     e.file = job.output.generic_string();
     e.output_xxh64 = Xxh64(*glb);
     e.bytes_out = static_cast<int64_t>(glb->size());
@@ -404,29 +414,42 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
 
   int threads = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::max(1, std::min<int>(threads, static_cast<int>(std::max<size_t>(1, jobs.size()))));
+  std::atomic<bool> stop{false};
+  int running = threads;
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&] {
-      for (size_t i = next++; i < jobs.size(); i = next++) {
+      for (size_t i = next++; i < jobs.size() && !stop; i = next++) {
         Finished f = work(jobs[i]);
         std::lock_guard lock(mu);
         finished.push_back(std::move(f));
         cv.notify_one();
       }
+      std::lock_guard lock(mu);
+      --running;
+      cv.notify_one();
     });
   }
-  Status catalog_status = Status::Ok();
-  for (size_t done = 0; done < jobs.size(); ++done) {
+  // The first error that stops the batch; assets finished meanwhile are still recorded.
+  Status output_status = Status::Ok(), catalog_status = Status::Ok();
+  for (int64_t done = 0;; ++done) {
     Finished f;
     {
       std::unique_lock lock(mu);
-      cv.wait(lock, [&] { return !finished.empty(); });
+      cv.wait(lock, [&] { return !finished.empty() || running == 0; });
+      if (finished.empty()) break;
       f = std::move(finished.front());
       finished.pop_front();
+    }
+    if (!f.output_error.ok()) {
+      if (output_status.ok()) output_status = std::move(f.output_error);
+      stop = true;
+      continue;
     }
     if (f.entry) {
       // The row goes in after the file is in place: a row never points at a missing file.
       if (catalog_status.ok()) catalog_status = catalog.Put(*f.entry);
+      if (!catalog_status.ok()) stop = true;
       report.bytes_in += f.entry->bytes_in;
       report.bytes_out += f.entry->bytes_out;
       switch (f.entry->status) {
@@ -439,10 +462,12 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
       ++report.up_to_date;
     }
     if (options.on_item) options.on_item(f.outcome);
-    if (options.progress) options.progress(static_cast<int64_t>(done + 1), static_cast<int64_t>(jobs.size()));
+    if (options.progress) options.progress(done + 1, static_cast<int64_t>(jobs.size()));
   }
   for (std::thread& t : pool) t.join();
+  SOLID_RETURN_IF_ERROR(output_status);
   SOLID_RETURN_IF_ERROR(catalog_status);
+  SOLID_RETURN_IF_ERROR(catalog.Close());
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }

@@ -2,11 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <chrono>
-#include <cstdio>
 #include <cstring>
 #include <map>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <system_error>
 #include <utility>
@@ -38,15 +39,17 @@ class JsonStream {
     JsonStream s;
     s.final_ = final_path;
     s.temp_ = files::TempPathFor(final_path);
-    s.file_.reset(std::fopen(s.temp_.c_str(), "wb"));
-    if (!s.file_) return IoError(fmt::format("{}: cannot create: {}", s.temp_.string(), std::strerror(errno)));
+    s.fd_ = ::open(s.temp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (s.fd_ < 0) {
+      return IoError(fmt::format("{}: create a temporary sibling: {}", final_path.string(), std::strerror(errno)));
+    }
     return s;
   }
   JsonStream(JsonStream&& o) noexcept
-      : final_(std::move(o.final_)), temp_(std::exchange(o.temp_, {})), file_(std::move(o.file_)),
+      : final_(std::move(o.final_)), temp_(std::exchange(o.temp_, {})), fd_(std::exchange(o.fd_, -1)),
         buffer_(std::move(o.buffer_)), published_(o.published_) {}
   ~JsonStream() {
-    file_.reset();
+    if (fd_ >= 0) ::close(fd_);
     std::error_code ec;
     if (!published_ && !temp_.empty()) fs::remove(temp_, ec);
   }
@@ -57,40 +60,33 @@ class JsonStream {
   }
   Status Publish() {
     SOLID_RETURN_IF_ERROR(Flush());
-    if (std::fclose(file_.release()) != 0) return IoError(fmt::format("{}: close failed", temp_.string()));
-    SOLID_RETURN_IF_ERROR(files::SyncFile(temp_));
-    SOLID_RETURN_IF_ERROR(files::Publish(temp_, final_, /*replace=*/true));
+    if (::close(std::exchange(fd_, -1)) != 0) {
+      return IoError(fmt::format("{}: close: {}", final_.string(), std::strerror(errno)));
+    }
+    SOLID_RETURN_IF_ERROR(files::SyncAndPublish(temp_, final_, /*replace=*/true));
     published_ = true;
     return Status::Ok();
   }
 
  private:
-  struct Closer {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-  };
   JsonStream() = default;
   Status Flush() {
-    if (!buffer_.empty() && std::fwrite(buffer_.data(), 1, buffer_.size(), file_.get()) != buffer_.size()) {
-      return IoError(fmt::format("{}: write failed: {}", temp_.string(), std::strerror(errno)));
-    }
+    SOLID_RETURN_IF_ERROR(files::WriteAll(fd_, {reinterpret_cast<const uint8_t*>(buffer_.data()), buffer_.size()},
+                                          final_));
     buffer_.clear();
     return Status::Ok();
   }
   fs::path final_, temp_;
-  std::unique_ptr<std::FILE, Closer> file_;
+  int fd_ = -1;
   std::string buffer_;
   bool published_ = false;
 };
 
+// Removed first: the old file may be a hard link into another export.
 Status WriteBytes(const fs::path& path, const std::vector<uint8_t>& bytes) {
-  // Removed first: the old file may be a hard link into another export.
   std::error_code ec;
   fs::remove(path, ec);
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), std::fclose);
-  if (!f || std::fwrite(bytes.data(), 1, bytes.size(), f.get()) != bytes.size() || std::fclose(f.release()) != 0) {
-    return IoError(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
-  }
-  return Status::Ok();
+  return files::WritePlainFile(path, bytes);
 }
 
 Status LinkImage(const fs::path& from, const fs::path& to, const ImageRecord& image, const fs::path& shard) {

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "solid/formats/checksum.h"
+#include "solid/formats/files.h"
 #include "solid/formats/json_schema.h"
 #include "sqlite_schema.h"
 #include "sqlite_util.h"
@@ -97,16 +98,32 @@ Result<Catalog> Catalog::OpenForWriting(const fs::path& path) {
   auto impl = std::make_unique<Impl>();
   impl->path = path;
   std::error_code ec;
-  bool exists = fs::exists(path, ec);
-  SOLID_ASSIGN_OR_RETURN(impl->db, Db::Open(path, sqlite::OpenMode::kCreate));
-  if (exists) {
-    SOLID_RETURN_IF_ERROR(sqlite::CheckSchema(impl->db, "catalog.sql"));
-  } else {
-    SOLID_RETURN_IF_ERROR(sqlite::CreateSchema(impl->db, "catalog.sql"));
+  if (!fs::exists(path, ec)) {
+    // Made aside and renamed into place: a creation cut short (a full disk) must not leave
+    // half a schema, which the next run would refuse as a foreign file.
+    files::RemoveStaleTemps(path);
+    const fs::path temp = files::TempPathFor(path);
+    Status created = [&]() -> Status {
+      SOLID_ASSIGN_OR_RETURN(Db db, Db::Open(temp, sqlite::OpenMode::kCreate, path.string()));
+      SOLID_RETURN_IF_ERROR(sqlite::CreateSchema(db, "catalog.sql"));
+      db.Close();
+      return files::SyncAndPublish(temp, path, /*replace=*/false);
+    }();
+    if (!created.ok()) fs::remove(temp, ec);
+    // kAlreadyExists: another converter made it first, which is as good.
+    if (!created.ok() && created.code() != StatusCode::kAlreadyExists) return created;
   }
+  SOLID_ASSIGN_OR_RETURN(impl->db, Db::Open(path, sqlite::OpenMode::kCreate));
+  SOLID_RETURN_IF_ERROR(sqlite::CheckSchema(impl->db, "catalog.sql"));
   // WAL: each Put is one small durable commit, and readers never block the converter.
   SOLID_RETURN_IF_ERROR(impl->db.Exec("PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;"));
   return Catalog(std::move(impl));
+}
+
+Status Catalog::Close() {
+  Status s = impl_->db.Exec("PRAGMA wal_checkpoint(TRUNCATE)");
+  impl_->db.Close();
+  return s.WithContext("closing the catalog");
 }
 
 Result<Catalog> Catalog::OpenReadOnly(const fs::path& path) {

@@ -14,6 +14,7 @@
 #include <memory>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -37,6 +38,13 @@ Status ErrnoStatus(std::string_view what, const std::filesystem::path& path, int
   return Status(code, fmt::format("{}: {}: {}", path.string(), what, std::strerror(err)));
 }
 
+// A failed write is the output's fault, never the input's: a vanished output directory
+// (ENOENT) is an I/O error like a full disk.
+Status WriteErrnoStatus(std::string_view what, const std::filesystem::path& path, int err) {
+  return Status(err == EEXIST ? StatusCode::kAlreadyExists : StatusCode::kIoError,
+                fmt::format("{}: {}: {}", path.string(), what, std::strerror(err)));
+}
+
 class Fd {
  public:
   explicit Fd(int fd) : fd_(fd) {}
@@ -46,12 +54,53 @@ class Fd {
   Fd(const Fd&) = delete;
   Fd& operator=(const Fd&) = delete;
   int get() const { return fd_; }
+  int release() { return std::exchange(fd_, -1); }
 
  private:
   int fd_;
 };
 
+// Writes bytes to a new synced temporary sibling of path; on error nothing is left behind.
+// The messages name the final path, which is what the user asked for: the temporary is gone
+// by the time they read them.
+Result<std::filesystem::path> WriteTemporary(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
+  std::filesystem::path temp = TempPathFor(path);
+  Fd fd(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+  if (fd.get() < 0) return WriteErrnoStatus("create a temporary sibling", path, errno);
+  Status s = WriteAll(fd.get(), bytes, path);
+  if (s.ok() && ::fsync(fd.get()) != 0) s = WriteErrnoStatus("fsync", path, errno);
+  if (!s.ok()) {
+    ::unlink(temp.c_str());
+    return s;
+  }
+  return temp;
+}
+
 }  // namespace
+
+Status WriteAll(int fd, std::span<const uint8_t> bytes, const std::filesystem::path& path) {
+  size_t done = 0;
+  while (done < bytes.size()) {
+    ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    // write() returns 0 only for a zero count, which the loop never asks for.
+    if (n <= 0) return WriteErrnoStatus("write", path, n < 0 ? errno : EIO);
+    done += static_cast<size_t>(n);
+  }
+  return Status::Ok();
+}
+
+Status WritePlainFile(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
+  Status s = [&]() -> Status {
+    Fd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+    if (fd.get() < 0) return WriteErrnoStatus("create", path, errno);
+    SOLID_RETURN_IF_ERROR(WriteAll(fd.get(), bytes, path));
+    if (::close(fd.release()) != 0) return WriteErrnoStatus("close", path, errno);
+    return Status::Ok();
+  }();
+  if (!s.ok()) ::unlink(path.c_str());
+  return s;
+}
 
 std::filesystem::path TempPathFor(const std::filesystem::path& final_path) {
   // The sequence number keeps two writers of one file in the same process apart.
@@ -80,58 +129,63 @@ void RemoveStaleTemps(const std::filesystem::path& final_path) {
   }
 }
 
-Status SyncFile(const std::filesystem::path& path) {
-  Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-  if (fd.get() < 0) return ErrnoStatus("open for fsync", path, errno);
-  if (::fsync(fd.get()) != 0) return ErrnoStatus("fsync", path, errno);
-  return Status::Ok();
-}
-
 Status SyncDirectory(const std::filesystem::path& dir) {
   std::filesystem::path d = dir.empty() ? "." : dir;
   Fd fd(::open(d.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-  if (fd.get() < 0) return ErrnoStatus("open directory for fsync", d, errno);
-  if (::fsync(fd.get()) != 0) return ErrnoStatus("fsync directory", d, errno);
+  if (fd.get() < 0) return WriteErrnoStatus("open directory for fsync", d, errno);
+  if (::fsync(fd.get()) != 0) return WriteErrnoStatus("fsync directory", d, errno);
   return Status::Ok();
 }
 
 Status Publish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace) {
   if (replace) {
-    if (::rename(temp.c_str(), final_path.c_str()) != 0) return ErrnoStatus("rename into place", final_path, errno);
+    if (::rename(temp.c_str(), final_path.c_str()) != 0) {
+      return WriteErrnoStatus("rename into place", final_path, errno);
+    }
   } else if (::renameat2(AT_FDCWD, temp.c_str(), AT_FDCWD, final_path.c_str(), RENAME_NOREPLACE) != 0) {
     int err = errno;
-    if (err != EINVAL && err != ENOSYS) return ErrnoStatus("rename into place", final_path, err);
+    if (err != EINVAL && err != ENOSYS) return WriteErrnoStatus("rename into place", final_path, err);
     // File systems without RENAME_NOREPLACE: link() fails on an existing target just the same.
-    if (::link(temp.c_str(), final_path.c_str()) != 0) return ErrnoStatus("link into place", final_path, errno);
+    if (::link(temp.c_str(), final_path.c_str()) != 0) return WriteErrnoStatus("link into place", final_path, errno);
     ::unlink(temp.c_str());
   }
   return SyncDirectory(final_path.parent_path());
 }
 
+Status SyncAndPublish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace) {
+  Status s = [&]() -> Status {
+    Fd fd(::open(temp.c_str(), O_RDONLY | O_CLOEXEC));
+    if (fd.get() < 0) return WriteErrnoStatus("open the temporary sibling for fsync", final_path, errno);
+    if (::fsync(fd.get()) != 0) return WriteErrnoStatus("fsync", final_path, errno);
+    return Publish(temp, final_path, replace);
+  }();
+  if (!s.ok()) ::unlink(temp.c_str());
+  return s;
+}
+
 Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
-  std::filesystem::path temp = TempPathFor(path);
-  {
-    Fd fd(::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
-    if (fd.get() < 0) return ErrnoStatus("create", temp, errno);
-    size_t done = 0;
-    while (done < bytes.size()) {
-      ssize_t n = ::write(fd.get(), bytes.data() + done, bytes.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) {
-        Status s = ErrnoStatus("write", temp, errno);
-        ::unlink(temp.c_str());
-        return s;
-      }
-      done += static_cast<size_t>(n);
-    }
-    if (::fsync(fd.get()) != 0) {
-      Status s = ErrnoStatus("fsync", temp, errno);
-      ::unlink(temp.c_str());
-      return s;
-    }
-  }
+  SOLID_ASSIGN_OR_RETURN(std::filesystem::path temp, WriteTemporary(path, bytes));
   Status s = Publish(temp, path, /*replace=*/true);
   if (!s.ok()) ::unlink(temp.c_str());
+  return s;
+}
+
+Status WriteFilesAtomically(std::span<const FileContent> outputs) {
+  std::vector<std::filesystem::path> temps;
+  Status s;
+  for (const FileContent& f : outputs) {
+    Result<std::filesystem::path> temp = WriteTemporary(f.path, f.bytes);
+    if (!temp.ok()) {
+      s = temp.status();
+      break;
+    }
+    temps.push_back(*temp);
+  }
+  for (size_t i = 0; s.ok() && i < temps.size(); ++i) s = Publish(temps[i], outputs[i].path, /*replace=*/true);
+  // Temporaries not yet renamed (unlinking a renamed one finds nothing).
+  if (!s.ok()) {
+    for (const std::filesystem::path& t : temps) ::unlink(t.c_str());
+  }
   return s;
 }
 

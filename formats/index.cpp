@@ -213,13 +213,12 @@ Result<IndexReport> BuildIndex(const fs::path& root, const ProgressCallback& pro
   std::error_code ec;
   fs::remove(temp, ec);
   Result<IndexReport> report = [&]() -> Result<IndexReport> {
-    SOLID_ASSIGN_OR_RETURN(Db db, Db::Open(temp, sqlite::OpenMode::kCreate));
+    SOLID_ASSIGN_OR_RETURN(Db db, Db::Open(temp, sqlite::OpenMode::kCreate, paths.index().string()));
     SOLID_RETURN_IF_ERROR(db.Exec("PRAGMA journal_mode = OFF; PRAGMA synchronous = OFF;"));
     SOLID_RETURN_IF_ERROR(sqlite::CreateSchema(db, "index.sql"));
     SOLID_ASSIGN_OR_RETURN(IndexReport r, FillIndex(db, root, progress));
     db.Close();
-    SOLID_RETURN_IF_ERROR(files::SyncFile(temp));
-    SOLID_RETURN_IF_ERROR(files::Publish(temp, paths.index(), /*replace=*/true));
+    SOLID_RETURN_IF_ERROR(files::SyncAndPublish(temp, paths.index(), /*replace=*/true));
     return r;
   }();
   if (!report.ok()) fs::remove(temp, ec);

@@ -78,7 +78,7 @@ class AtomicShard {
     files::RemoveStaleTemps(final_path);
     shard.temp_path_ = files::TempPathFor(final_path);
     fs::remove(shard.temp_path_, ec);
-    SOLID_ASSIGN_OR_RETURN(shard.db_, Db::Open(shard.temp_path_, sqlite::OpenMode::kCreate));
+    SOLID_ASSIGN_OR_RETURN(shard.db_, Db::Open(shard.temp_path_, sqlite::OpenMode::kCreate, final_path.string()));
     shard.open_ = true;
     // The temporary file is never trusted before the rename, so SQLite's own
     // crash safety (journal, syncs) would only cost time: we sync once at the end.
@@ -123,8 +123,7 @@ class AtomicShard {
     Status s = db_.Exec("COMMIT");
     release_statements();
     db_.Close();
-    if (s.ok()) s = files::SyncFile(temp_path_);
-    if (s.ok()) s = files::Publish(temp_path_, final_path_, replace_);
+    if (s.ok()) s = files::SyncAndPublish(temp_path_, final_path_, replace_);
     open_ = false;
     if (!s.ok()) {
       std::error_code ec;

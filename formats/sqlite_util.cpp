@@ -1,19 +1,52 @@
 #include "sqlite_util.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
+
+#include <cerrno>
+#include <cstring>
 
 namespace solid::sqlite {
 
-Result<Db> Db::Open(const std::filesystem::path& path, OpenMode mode) {
+namespace {
+
+// SQLite's message for a failed system call, with the cause the operating system gave:
+// "disk I/O error" alone does not tell a full disk from a failing one.
+std::string Cause(sqlite3* db, int rc, std::string_view message) {
+  int primary = rc & 0xFF;
+  // SQLITE_FULL is a short write or ENOSPC, and SQLite keeps no errno for it.
+  if (primary == SQLITE_FULL) return fmt::format("{} ({})", message, std::strerror(ENOSPC));
+  int err = db ? sqlite3_system_errno(db) : 0;
+  if ((primary == SQLITE_IOERR || primary == SQLITE_CANTOPEN) && err != 0) {
+    return fmt::format("{} ({})", message, std::strerror(err));
+  }
+  return std::string(message);
+}
+
+}  // namespace
+
+Result<Db> Db::Open(const std::filesystem::path& path, OpenMode mode, std::string_view name) {
   Db db;
-  db.name_ = path.string();
+  db.name_ = name.empty() ? path.string() : std::string(name);
   sqlite3* raw = nullptr;
+  if (mode == OpenMode::kCreate && path != ":memory:") {
+    // SQLite falls back to read-only when it cannot open for writing and drops the
+    // errno: find out first, so that a read-only or vanished directory says so.
+    int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) {
+      return IoError(fmt::format("{}: cannot open for writing: {}", db.name_, std::strerror(errno)));
+    }
+    ::close(fd);
+  }
   int flags = SQLITE_OPEN_NOMUTEX;
   flags |= mode == OpenMode::kCreate ? (SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE) : SQLITE_OPEN_READONLY;
-  int rc = sqlite3_open_v2(db.name_.c_str(), &raw, flags, nullptr);
+  int rc = sqlite3_open_v2(path.c_str(), &raw, flags, nullptr);
   db.db_.reset(raw);
   if (rc != SQLITE_OK) {
-    return IoError(fmt::format("{}: cannot open: {}", db.name_, raw ? sqlite3_errmsg(raw) : sqlite3_errstr(rc)));
+    return IoError(fmt::format("{}: cannot open: {}", db.name_,
+                               raw ? Cause(raw, rc, sqlite3_errmsg(raw)) : sqlite3_errstr(rc)));
   }
   sqlite3_extended_result_codes(raw, 1);
   if (mode == OpenMode::kUntrustedRead) {
@@ -37,11 +70,14 @@ Status Db::Exec(std::string_view sql) {
   std::string owned(sql);
   int rc = sqlite3_exec(db_.get(), owned.c_str(), nullptr, nullptr, &err);
   if (rc == SQLITE_OK) return Status::Ok();
-  std::string msg = err ? err : sqlite3_errstr(rc);
+  std::string msg = Cause(db_.get(), sqlite3_extended_errcode(db_.get()), err ? err : sqlite3_errstr(rc));
   sqlite3_free(err);
-  StatusCode code = (rc & 0xFF) == SQLITE_CORRUPT || (rc & 0xFF) == SQLITE_NOTADB ? StatusCode::kCorrupt
-                    : (rc & 0xFF) == SQLITE_IOERR || (rc & 0xFF) == SQLITE_FULL ? StatusCode::kIoError
-                                                                                 : StatusCode::kInternal;
+  const int primary = rc & 0xFF;
+  StatusCode code = primary == SQLITE_CORRUPT || primary == SQLITE_NOTADB ? StatusCode::kCorrupt
+                    : primary == SQLITE_IOERR || primary == SQLITE_FULL || primary == SQLITE_CANTOPEN ||
+                            primary == SQLITE_READONLY || primary == SQLITE_PERM
+                        ? StatusCode::kIoError
+                        : StatusCode::kInternal;
   return Status(code, fmt::format("{}: {}", name_, msg));
 }
 
@@ -61,7 +97,7 @@ Status Db::Error(std::string_view what) const {
     // "no such table" and friends: a file that is SQLite but not ours.
     code = StatusCode::kCorrupt;
   }
-  return Status(code, fmt::format("{}: {}: {} ({})", name_, what, sqlite3_errmsg(db_.get()), rc));
+  return Status(code, fmt::format("{}: {}: {} ({})", name_, what, Cause(db_.get(), rc, sqlite3_errmsg(db_.get())), rc));
 }
 
 Result<int64_t> Db::QueryInt(std::string_view sql) {

@@ -30,7 +30,9 @@ enum class OpenMode {
 
 class Db {
  public:
-  static Result<Db> Open(const std::filesystem::path& path, OpenMode mode);
+  // `name` (default: path) is what messages call the file: the final name of a file
+  // written under a temporary one.
+  static Result<Db> Open(const std::filesystem::path& path, OpenMode mode, std::string_view name = {});
   static Result<Db> OpenInMemory();
 
   sqlite3* get() const { return db_.get(); }

@@ -10,7 +10,6 @@
 #include <limits>
 
 #include "solid/formats/dataset.h"
-#include "solid/formats/files.h"
 #include "solid/formats/rle.h"
 #include "solid/formats/shard.h"
 #include "solid/render/sample.h"
@@ -425,7 +424,7 @@ nlohmann::json OptimizeReport::ToJson() const {
   return j;
 }
 
-Status WriteTrace(const OptimizeReport& report, const std::filesystem::path& path) {
+std::string TraceText(const OptimizeReport& report, const std::filesystem::path& path) {
   std::string text;
   if (path.extension() == ".csv") {
     text = "evaluation,round,phase,seconds,layouts,objective,objects_per_image,occlusion,small,medium,large";
@@ -455,8 +454,7 @@ Status WriteTrace(const OptimizeReport& report, const std::filesystem::path& pat
     }
     text = rows.dump(1) + "\n";
   }
-  return files::WriteFileAtomically(
-      path, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text.data()), text.size()));
+  return text;
 }
 
 Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root) {

@@ -46,7 +46,8 @@ struct CatalogEntry {
 
 class Catalog {
  public:
-  // Creates the file (and its schema) if absent; refuses a file of another kind or version.
+  // Creates the file (and its schema) if absent, whole or not at all; refuses a file of
+  // another kind or version.
   static Result<Catalog> OpenForWriting(const std::filesystem::path& path);
   static Result<Catalog> OpenReadOnly(const std::filesystem::path& path);
   Catalog(Catalog&&) noexcept;
@@ -61,6 +62,9 @@ class Catalog {
   // XXH64 over (key, output_xxh64) of every non-failed row in key order: identifies
   // the asset set a dataset was rendered from (Manifest::catalog_hash).
   Result<uint64_t> ContentHash();
+  // Checkpoints the write-ahead log into the file, syncing both, and closes: the one place
+  // a writer learns that the sync failed. The catalog is unusable afterwards.
+  Status Close();
 
  private:
   struct Impl;

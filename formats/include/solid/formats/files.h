@@ -20,15 +20,36 @@ bool IsTempPath(const std::filesystem::path& path);
 // Removes "<final>.tmp-<this host>-<pid>-<n>" leftovers of writers that no longer run.
 void RemoveStaleTemps(const std::filesystem::path& final_path);
 
-Status SyncFile(const std::filesystem::path& path);
 Status SyncDirectory(const std::filesystem::path& dir);
 
 // Renames temp onto final and syncs the directory. With replace == false the
 // rename fails with kAlreadyExists if final exists (two writers of one shard).
 Status Publish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace);
 
-// Whole-file write through a synced temporary sibling.
+// Syncs temp, a finished temporary sibling of final_path (a database written in place),
+// and publishes it. On error temp is removed; messages name final_path.
+Status SyncAndPublish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace);
+
+// Whole-file write through a synced temporary sibling. On error the file at path is as it
+// was, and no temporary is left.
 Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes);
+
+// Writes all of bytes to fd, through short writes and EINTR; messages name path.
+Status WriteAll(int fd, std::span<const uint8_t> bytes, const std::filesystem::path& path);
+
+// Creates or truncates path and writes bytes, without sync or rename: for the many small
+// files of an output that another file publishes (an export's images, which annotations.json
+// names). On error the file is removed, so none is left half-written.
+Status WritePlainFile(const std::filesystem::path& path, std::span<const uint8_t> bytes);
+
+// The outputs of one command: none is renamed into place before all are written and
+// synced, so a full disk changes none of them. Then they are renamed in order; a failed
+// rename (rare, after the writes succeeded) leaves those before it published.
+struct FileContent {
+  std::filesystem::path path;
+  std::span<const uint8_t> bytes;
+};
+Status WriteFilesAtomically(std::span<const FileContent> outputs);
 
 // Reads a whole file, refusing more than max_bytes.
 Result<std::vector<uint8_t>> ReadFile(const std::filesystem::path& path, uint64_t max_bytes);

@@ -157,9 +157,9 @@ struct OptimizeReport {
 // blocked_by.
 Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, const OptimizeOptions& options);
 
-// The trace as CSV (path ending in .csv: one row per evaluation, metrics and every
-// dimension by name) or JSON (an array of objects), written atomically.
-Status WriteTrace(const OptimizeReport& report, const std::filesystem::path& path);
+// The trace as CSV (for a path ending in .csv: one row per evaluation, metrics and every
+// dimension by name) or JSON (an array of objects).
+std::string TraceText(const OptimizeReport& report, const std::filesystem::path& path);
 
 // Proxy metrics of a rendered dataset, computed from its stored masks (COCO RLE decoded,
 // areas counted; no image is read). Errors name the shard and image.
