@@ -4,6 +4,9 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cstring>
+#include <iterator>
 #include <mutex>
 #include <string>
 
@@ -68,6 +71,51 @@ bool ReadPixels(OIIO::ImageInput& reader, OIIO::TypeDesc type, void* data) {
   return true;
 }
 
+// OpenEXR 3.1 allocates whatever size a header attribute claims before reading it, so a
+// file of a few hundred bytes can cost gigabytes (image_fuzz found one). In a well-formed
+// file every attribute fits in the bytes after it: walk the header(s) and refuse any that
+// does not before OpenEXR (or OpenImageIO probing formats) sees the bytes. Bytes that do not
+// start with the OpenEXR magic are left to the decoders.
+Status CheckExrAttributeSizes(std::span<const uint8_t> bytes) {
+  constexpr uint8_t kMagic[] = {0x76, 0x2f, 0x31, 0x01};
+  if (bytes.size() < 8 || !std::equal(std::begin(kMagic), std::end(kMagic), bytes.begin())) return Status::Ok();
+  const bool multipart = (bytes[5] & 0x10) != 0;  // version field bit 12
+  auto corrupt = [](size_t offset, std::string_view what) {
+    return Error("decoding EXR", fmt::format("header at byte {}: {}", offset, what));
+  };
+  size_t at = 8;
+  // A NUL-terminated string of at most 255 bytes (OpenEXR's long-name limit) at `at`.
+  auto skip_string = [&]() -> bool {
+    const size_t end = std::min(bytes.size(), at + 256);
+    const auto nul = std::find(bytes.begin() + static_cast<std::ptrdiff_t>(at),
+                               bytes.begin() + static_cast<std::ptrdiff_t>(end), uint8_t{0});
+    if (nul == bytes.begin() + static_cast<std::ptrdiff_t>(end)) return false;
+    at = static_cast<size_t>(nul - bytes.begin()) + 1;
+    return true;
+  };
+  for (;;) {  // headers: one, or for a multi-part file a list ended by an empty header
+    size_t attributes = 0;
+    for (;;) {  // attributes, ended by a NUL byte
+      if (at >= bytes.size()) return corrupt(at, "truncated");
+      if (bytes[at] == 0) {
+        ++at;
+        break;
+      }
+      const size_t start = at;
+      if (!skip_string() || !skip_string() || bytes.size() - at < 4) return corrupt(start, "truncated attribute");
+      int32_t size = 0;
+      std::memcpy(&size, bytes.data() + at, 4);
+      at += 4;
+      if (size < 0 || static_cast<uint64_t>(size) > bytes.size() - at) {
+        return corrupt(start, fmt::format("an attribute claims {} bytes, {} remain", size, bytes.size() - at));
+      }
+      at += static_cast<size_t>(size);
+      ++attributes;
+    }
+    if (!multipart || attributes == 0) return Status::Ok();
+  }
+}
+
 // Opens bytes for reading and checks the header against the limits.
 Result<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string& name, OIIO::Filesystem::IOMemReader* proxy,
                                                       const ImageLimits& limits) {
@@ -113,6 +161,7 @@ Result<std::vector<uint8_t>> EncodeImage(const Image8& image, ImageFormat format
 }
 
 Result<Image8> DecodeImage(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+  SOLID_RETURN_IF_ERROR(CheckExrAttributeSizes(bytes));
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   std::string name = FileNameFor(format);
   SOLID_ASSIGN_OR_RETURN(auto reader, OpenChecked(name, &proxy, limits));
@@ -150,6 +199,7 @@ Result<std::vector<uint8_t>> EncodeDepthExr(const DepthImage& depth) {
 }
 
 Result<DepthImage> DecodeDepthExr(std::span<const uint8_t> bytes, const ImageLimits& limits) {
+  SOLID_RETURN_IF_ERROR(CheckExrAttributeSizes(bytes));
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   SOLID_ASSIGN_OR_RETURN(auto reader, OpenFromMemory("memory.exr", &proxy));
   const OIIO::ImageSpec& spec = reader->spec();
