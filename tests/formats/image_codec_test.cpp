@@ -118,6 +118,18 @@ TEST(ImageCodec, ImageFuzzTimeout441e85deHugeExrAttribute) {
   }
 }
 
+// image_fuzz timeout-16617999: a 357-byte EXR whose attributes fit the file but whose parse
+// by content sent OpenEXR past the header, into allocations that took over 10 s under ASan.
+TEST(ImageCodec, ImageFuzzTimeout16617999ExrParsedPastItsHeader) {
+  const std::vector<uint8_t> bytes = Regression("image-timeout-16617999.exr");
+  ASSERT_EQ(bytes.size(), 357u);
+  Result<DepthImage> depth = DecodeDepthExr(bytes);
+  ASSERT_FALSE(depth.ok());
+  EXPECT_EQ(depth.status().code(), StatusCode::kParseError);
+  EXPECT_NE(depth.status().message().find("decoding EXR: header at byte"), std::string::npos)
+      << depth.status().message();
+}
+
 TEST(ImageCodec, ExrHeaderWalkAcceptsWhatWeWrite) {
   DepthImage depth{3, 2, {1, 2, 3, 4, 5, 6}};
   Result<std::vector<uint8_t>> bytes = EncodeDepthExr(depth);
