@@ -14,14 +14,15 @@
 #   -w  work directory for corpora, seeds, artifacts and logs (default $HOME/solid-fuzz)
 #   -m  minutes per target (default 30); -s gives seconds instead
 #   -j  targets fuzzed at once, one process each (default 1)
-#   -t  seconds after which one input counts as a hang (default 10)
+#   -t  seconds after which one input counts as a hang (default 25: wall time, so a loaded
+#       machine needs slack; our slowest inputs take well under a second)
 #   -r  RSS limit in MB; one input beyond it counts as a memory blowup (default 2048)
 #   TARGET  obj glb rle image params search_space manifest shard query_shard index catalog
 #           (default: all)
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
 all_targets=(obj glb rle image params search_space manifest shard query_shard index catalog)
-build=build-fuzz work=${HOME}/solid-fuzz seconds=1800 jobs=1 timeout=10 rss=2048
+build=build-fuzz work=${HOME}/solid-fuzz seconds=1800 jobs=1 timeout=25 rss=2048
 while getopts "b:w:m:s:j:t:r:h" opt; do
   case $opt in
     b) build=$OPTARG ;;
