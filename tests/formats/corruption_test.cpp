@@ -5,6 +5,7 @@
 
 #include <fstream>
 #include <random>
+#include <set>
 
 #include <sqlite3.h>
 
@@ -160,6 +161,37 @@ TEST(CorruptCatalog, CatalogFuzzCrash11d85253FindReachesAnotherRow) {
     EXPECT_EQ(found.status().code(), StatusCode::kCorrupt);
     EXPECT_NE(found.status().message().find("looking up '" + row.key + "' found the row of"), std::string::npos)
         << found.status().message();
+  }
+  EXPECT_EQ(damaged, 1);
+}
+
+// shard_fuzz crash-e10be1c3: a shard whose instances_by_model index leads the lookup of one
+// model to a row of another. InstancesOfModel must call the shard damaged rather than
+// return that instance as the model's.
+TEST(CorruptShardIndex, ShardFuzzCrashE10be1c3ModelLookupReachesAnotherModel) {
+  TempDir dir;
+  const fs::path path = dir.path() / TargetShardFileName(0);
+  fs::copy_file(fs::path(SOLID_SOURCE_DIR) / "tests/formats/regressions/shard-crash-e10be1c3.sqlite", path);
+  Result<ShardReader> reader = ShardReader::Open(path);
+  ASSERT_OK(reader.status());
+  std::set<std::string> models;
+  ASSERT_OK(reader->ForEachInstance(
+      [&](const InstanceRecord& in) {
+        models.insert(in.model_key);
+        return Status::Ok();
+      },
+      ChecksumPolicy::kSkip));
+  int damaged = 0;
+  for (const std::string& model : models) {
+    Result<std::vector<InstanceRecord>> instances = reader->InstancesOfModel(model);
+    if (instances.ok()) {
+      for (const InstanceRecord& in : *instances) EXPECT_EQ(in.model_key, model);
+      continue;
+    }
+    // Other rows of this damaged file fail their checksums instead: corrupt as well.
+    EXPECT_EQ(instances.status().code(), StatusCode::kCorrupt) << instances.status().message();
+    damaged += instances.status().message().find("instances: looking up model '" + model + "' found a row of") !=
+               std::string::npos;
   }
   EXPECT_EQ(damaged, 1);
 }
