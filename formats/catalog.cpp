@@ -190,6 +190,12 @@ Result<std::optional<CatalogEntry>> Catalog::Find(std::string_view key) {
   SOLID_ASSIGN_OR_RETURN(bool row, s.Step());
   if (!row) return std::optional<CatalogEntry>();
   SOLID_ASSIGN_OR_RETURN(CatalogEntry e, ParseEntry(s, impl_->path.string()));
+  // A damaged key index can lead the lookup to another row (catalog_fuzz crash-11d85253):
+  // that row must not stand in for the asset asked for.
+  if (e.key != key) {
+    return CorruptError(fmt::format("{}: looking up '{}' found the row of '{}': the catalog's key index is damaged",
+                                    impl_->path.string(), key, e.key));
+  }
   return std::optional<CatalogEntry>(std::move(e));
 }
 

@@ -4,8 +4,13 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cstring>
+#include <iterator>
 #include <mutex>
 #include <string>
+#include <string_view>
+#include <utility>
 
 namespace solid {
 namespace OIIO = OIIO_NAMESPACE;
@@ -68,6 +73,86 @@ bool ReadPixels(OIIO::ImageInput& reader, OIIO::TypeDesc type, void* data) {
   return true;
 }
 
+// OpenEXR 3.1 allocates whatever size a header attribute claims before reading it, so a
+// file of a few hundred bytes can cost gigabytes (image_fuzz found two). In a well-formed
+// file every attribute fits in the bytes after it, and the attributes OpenEXR parses by
+// content rather than by the declared size (fixed-size types, channel lists) agree with that
+// size; otherwise OpenEXR loses its place and reads data as further attributes. Walk the
+// header(s) and refuse anything else before OpenEXR (or OpenImageIO probing formats) sees
+// the bytes. Bytes that do not start with the OpenEXR magic are left to the decoders.
+// The value size of OpenEXR's fixed-size attribute types, 0 for any other type.
+size_t ExrFixedSize(std::string_view type) {
+  static constexpr std::pair<std::string_view, size_t> kSizes[] = {
+      {"box2i", 16},    {"box2f", 16},     {"v2i", 8},        {"v2f", 8},          {"v3i", 12},
+      {"v3f", 12},      {"int", 4},        {"float", 4},      {"double", 8},       {"rational", 8},
+      {"compression", 1}, {"lineOrder", 1}, {"envmap", 1},    {"deepImageState", 1}, {"tiledesc", 9},
+      {"timecode", 8},  {"keycode", 28},   {"chromaticities", 32}, {"m33f", 36},   {"m44f", 64},
+      {"m33d", 72},     {"m44d", 128}};
+  for (const auto& [name, size] : kSizes) {
+    if (name == type) return size;
+  }
+  return 0;
+}
+
+// A channel list: entries of a NUL-terminated name and 16 bytes, then a NUL, filling the value.
+bool ExrChannelListFits(std::span<const uint8_t> value) {
+  size_t at = 0;
+  while (at < value.size() && value[at] != 0) {
+    const auto nul = std::find(value.begin() + static_cast<std::ptrdiff_t>(at), value.end(), uint8_t{0});
+    if (nul == value.end()) return false;
+    at = static_cast<size_t>(nul - value.begin()) + 1 + 16;
+  }
+  return at + 1 == value.size();
+}
+
+Status CheckExrAttributeSizes(std::span<const uint8_t> bytes) {
+  constexpr uint8_t kMagic[] = {0x76, 0x2f, 0x31, 0x01};
+  if (bytes.size() < 8 || !std::equal(std::begin(kMagic), std::end(kMagic), bytes.begin())) return Status::Ok();
+  const bool multipart = (bytes[5] & 0x10) != 0;  // version field bit 12
+  auto corrupt = [](size_t offset, std::string_view what) {
+    return Error("decoding EXR", fmt::format("header at byte {}: {}", offset, what));
+  };
+  size_t at = 8;
+  // A NUL-terminated string of at most 255 bytes (OpenEXR's long-name limit) at `at`.
+  auto skip_string = [&]() -> bool {
+    const size_t end = std::min(bytes.size(), at + 256);
+    const auto nul = std::find(bytes.begin() + static_cast<std::ptrdiff_t>(at),
+                               bytes.begin() + static_cast<std::ptrdiff_t>(end), uint8_t{0});
+    if (nul == bytes.begin() + static_cast<std::ptrdiff_t>(end)) return false;
+    at = static_cast<size_t>(nul - bytes.begin()) + 1;
+    return true;
+  };
+  for (;;) {  // headers: one, or for a multi-part file a list ended by an empty header
+    size_t attributes = 0;
+    for (;;) {  // attributes, ended by a NUL byte
+      if (at >= bytes.size()) return corrupt(at, "truncated");
+      if (bytes[at] == 0) {
+        ++at;
+        break;
+      }
+      const size_t start = at;
+      if (!skip_string()) return corrupt(start, "truncated attribute");
+      const size_t type_at = at;
+      if (!skip_string() || bytes.size() - at < 4) return corrupt(start, "truncated attribute");
+      const std::string_view type(reinterpret_cast<const char*>(bytes.data()) + type_at, at - type_at - 1);
+      int32_t size = 0;
+      std::memcpy(&size, bytes.data() + at, 4);
+      at += 4;
+      if (size < 0 || static_cast<uint64_t>(size) > bytes.size() - at) {
+        return corrupt(start, fmt::format("an attribute claims {} bytes, {} remain", size, bytes.size() - at));
+      }
+      const size_t fixed = ExrFixedSize(type);
+      if ((fixed != 0 && static_cast<size_t>(size) != fixed) ||
+          (type == "chlist" && !ExrChannelListFits(bytes.subspan(at, static_cast<size_t>(size))))) {
+        return corrupt(start, fmt::format("a {} attribute of {} bytes is malformed", type, size));
+      }
+      at += static_cast<size_t>(size);
+      ++attributes;
+    }
+    if (!multipart || attributes == 0) return Status::Ok();
+  }
+}
+
 // Opens bytes for reading and checks the header against the limits.
 Result<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string& name, OIIO::Filesystem::IOMemReader* proxy,
                                                       const ImageLimits& limits) {
@@ -121,6 +206,7 @@ Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat 
 }
 
 Result<Image8> DecodeImage(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+  SOLID_RETURN_IF_ERROR(CheckExrAttributeSizes(bytes));
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   std::string name = FileNameFor(format);
   SOLID_ASSIGN_OR_RETURN(auto reader, OpenChecked(name, &proxy, limits));
@@ -158,6 +244,7 @@ Result<std::vector<uint8_t>> EncodeDepthExr(const DepthImage& depth) {
 }
 
 Result<DepthImage> DecodeDepthExr(std::span<const uint8_t> bytes, const ImageLimits& limits) {
+  SOLID_RETURN_IF_ERROR(CheckExrAttributeSizes(bytes));
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   SOLID_ASSIGN_OR_RETURN(auto reader, OpenFromMemory("memory.exr", &proxy));
   const OIIO::ImageSpec& spec = reader->spec();

@@ -642,6 +642,11 @@ Result<ImageRecord> ShardReader::ReadImage(int64_t image_id, ChecksumPolicy poli
 }
 
 namespace {
+Status IndexLedAstray(const fs::path& path, std::string_view table, std::string_view wanted, std::string_view found) {
+  return CorruptError(fmt::format("{}: {}: looking up model '{}' found a row of '{}': the index is damaged",
+                                  path.string(), table, wanted, found));
+}
+
 Result<std::vector<InstanceRecord>> CollectInstances(Stmt& stmt, const std::string& file, ChecksumPolicy policy) {
   std::vector<InstanceRecord> out;
   for (;;) {
@@ -668,7 +673,13 @@ Result<std::vector<InstanceRecord>> ShardReader::InstancesOfModel(std::string_vi
       Stmt::Prepare(impl_->db, fmt::format("SELECT {} FROM instances WHERE model_key = ? ORDER BY image_id, ordinal",
                                            kInstanceColumns)));
   stmt.Bind(1, model_key);
-  return CollectInstances(stmt, impl_->path.string(), policy);
+  SOLID_ASSIGN_OR_RETURN(std::vector<InstanceRecord> instances, CollectInstances(stmt, impl_->path.string(), policy));
+  // The lookup goes through instances_by_model; a damaged index can lead it to rows of
+  // another model (shard_fuzz crash-e10be1c3), which must not pass as this one's.
+  for (const InstanceRecord& in : instances) {
+    if (in.model_key != model_key) return IndexLedAstray(impl_->path, "instances", model_key, in.model_key);
+  }
+  return instances;
 }
 
 Status ShardReader::ForEachInstance(const std::function<Status(const InstanceRecord&)>& fn, ChecksumPolicy policy) {
@@ -736,6 +747,8 @@ Result<std::vector<QueryViewRecord>> QueryShardReader::ViewsOfModel(std::string_
     SOLID_ASSIGN_OR_RETURN(bool row, stmt.Step());
     if (!row) break;
     SOLID_ASSIGN_OR_RETURN(QueryViewRecord v, ParseView(stmt, impl_->path.string(), policy));
+    // As in ShardReader::InstancesOfModel: the (model_key, view_index) index may be damaged.
+    if (v.model_key != model_key) return IndexLedAstray(impl_->path, "query_views", model_key, v.model_key);
     views.push_back(std::move(v));
   }
   return views;

@@ -5,11 +5,13 @@
 
 #include <fstream>
 #include <random>
+#include <set>
 
 #include <sqlite3.h>
 
 #include "fixtures/layered_dataset.h"
 #include "formats/test_util.h"
+#include "solid/formats/catalog.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/inspect.h"
 #include "solid/formats/shard.h"
@@ -132,6 +134,66 @@ TEST_F(Corruption, ShardReaderNamesTheRowOfABadChecksum) {
   EXPECT_NE(image.status().message().find("images row 4: image: checksum mismatch"), std::string::npos)
       << image.status().message();
   EXPECT_OK(reader->ReadImage(3, ChecksumPolicy::kVerify).status());
+}
+
+// catalog_fuzz crash-11d85253: a catalog whose key index leads the lookup of
+// "0269156/broken" to another row. Find must say the catalog is damaged rather than hand
+// back that row as the asset's.
+TEST(CorruptCatalog, CatalogFuzzCrash11d85253FindReachesAnotherRow) {
+  TempDir dir;
+  const fs::path path = dir.path() / "catalog.sqlite";
+  fs::copy_file(fs::path(SOLID_SOURCE_DIR) / "tests/formats/regressions/catalog-crash-11d85253.sqlite", path);
+  Result<Catalog> catalog = Catalog::OpenReadOnly(path);
+  ASSERT_OK(catalog.status());
+  Result<std::vector<CatalogEntry>> rows = catalog->All();
+  ASSERT_OK(rows.status());
+  int damaged = 0;
+  for (const CatalogEntry& row : *rows) {
+    Result<std::optional<CatalogEntry>> found = catalog->Find(row.key);
+    if (found.ok()) {
+      // Not finding a row the scan lists is what a damaged index may also do: harmless.
+      if (found->has_value()) {
+        EXPECT_EQ((*found)->key, row.key);
+      }
+      continue;
+    }
+    ++damaged;
+    EXPECT_EQ(found.status().code(), StatusCode::kCorrupt);
+    EXPECT_NE(found.status().message().find("looking up '" + row.key + "' found the row of"), std::string::npos)
+        << found.status().message();
+  }
+  EXPECT_EQ(damaged, 1);
+}
+
+// shard_fuzz crash-e10be1c3: a shard whose instances_by_model index leads the lookup of one
+// model to a row of another. InstancesOfModel must call the shard damaged rather than
+// return that instance as the model's.
+TEST(CorruptShardIndex, ShardFuzzCrashE10be1c3ModelLookupReachesAnotherModel) {
+  TempDir dir;
+  const fs::path path = dir.path() / TargetShardFileName(0);
+  fs::copy_file(fs::path(SOLID_SOURCE_DIR) / "tests/formats/regressions/shard-crash-e10be1c3.sqlite", path);
+  Result<ShardReader> reader = ShardReader::Open(path);
+  ASSERT_OK(reader.status());
+  std::set<std::string> models;
+  ASSERT_OK(reader->ForEachInstance(
+      [&](const InstanceRecord& in) {
+        models.insert(in.model_key);
+        return Status::Ok();
+      },
+      ChecksumPolicy::kSkip));
+  int damaged = 0;
+  for (const std::string& model : models) {
+    Result<std::vector<InstanceRecord>> instances = reader->InstancesOfModel(model);
+    if (instances.ok()) {
+      for (const InstanceRecord& in : *instances) EXPECT_EQ(in.model_key, model);
+      continue;
+    }
+    // Other rows of this damaged file fail their checksums instead: corrupt as well.
+    EXPECT_EQ(instances.status().code(), StatusCode::kCorrupt) << instances.status().message();
+    damaged += instances.status().message().find("instances: looking up model '" + model + "' found a row of") !=
+               std::string::npos;
+  }
+  EXPECT_EQ(damaged, 1);
 }
 
 }  // namespace

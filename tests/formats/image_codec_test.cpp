@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 
 #include "formats/test_util.h"
 
@@ -88,6 +90,58 @@ TEST(ImageCodec, GarbageIsAnErrorNotACrash) {
   }
   EXPECT_FALSE(DecodeDepthExr(garbage).ok());
   EXPECT_FALSE(DecodeImage({}, ImageFormat::kPng).ok());
+}
+
+// Inputs that fuzz targets (tests/fuzz) found, checked in under tests/formats/regressions/.
+std::vector<uint8_t> Regression(const std::string& name) {
+  std::ifstream in(std::string(SOLID_SOURCE_DIR) + "/tests/formats/regressions/" + name, std::ios::binary);
+  EXPECT_TRUE(in.good()) << name;
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// image_fuzz timeout-441e85de: a 690-byte EXR whose header attributes claim megabytes, which
+// OpenEXR allocated (and OpenImageIO then probed every other format) for over 10 s under ASan.
+// Refused from the header walk, naming the attribute's offset and claim, as a PNG or a depth map.
+TEST(ImageCodec, ImageFuzzTimeout441e85deHugeExrAttribute) {
+  const std::vector<uint8_t> bytes = Regression("image-timeout-441e85de.exr");
+  ASSERT_EQ(bytes.size(), 690u);
+  Result<DepthImage> depth = DecodeDepthExr(bytes);
+  ASSERT_FALSE(depth.ok());
+  EXPECT_EQ(depth.status().code(), StatusCode::kParseError);
+  EXPECT_NE(depth.status().message().find("header at byte 151: an attribute claims 16800256 bytes, 515 remain"),
+            std::string::npos)
+      << depth.status().message();
+  for (ImageFormat f : {ImageFormat::kPng, ImageFormat::kJpeg, ImageFormat::kWebp}) {
+    Result<Image8> image = DecodeImage(bytes, f);
+    ASSERT_FALSE(image.ok());
+    EXPECT_NE(image.status().message().find("claims 16800256 bytes"), std::string::npos) << image.status().message();
+  }
+}
+
+// image_fuzz timeout-16617999: a 357-byte EXR whose attributes fit the file but whose parse
+// by content sent OpenEXR past the header, into allocations that took over 10 s under ASan.
+TEST(ImageCodec, ImageFuzzTimeout16617999ExrParsedPastItsHeader) {
+  const std::vector<uint8_t> bytes = Regression("image-timeout-16617999.exr");
+  ASSERT_EQ(bytes.size(), 357u);
+  Result<DepthImage> depth = DecodeDepthExr(bytes);
+  ASSERT_FALSE(depth.ok());
+  EXPECT_EQ(depth.status().code(), StatusCode::kParseError);
+  EXPECT_NE(depth.status().message().find("decoding EXR: header at byte"), std::string::npos)
+      << depth.status().message();
+}
+
+TEST(ImageCodec, ExrHeaderWalkAcceptsWhatWeWrite) {
+  DepthImage depth{3, 2, {1, 2, 3, 4, 5, 6}};
+  Result<std::vector<uint8_t>> bytes = EncodeDepthExr(depth);
+  ASSERT_OK(bytes.status());
+  Result<DepthImage> decoded = DecodeDepthExr(*bytes);
+  ASSERT_OK(decoded.status());
+  EXPECT_EQ(decoded->values, depth.values);
+  // Cut inside the header: refused by the walk rather than handed to OpenEXR.
+  std::vector<uint8_t> cut(bytes->begin(), bytes->begin() + 40);
+  Result<DepthImage> truncated = DecodeDepthExr(cut);
+  ASSERT_FALSE(truncated.ok());
+  EXPECT_NE(truncated.status().message().find("header at byte"), std::string::npos) << truncated.status().message();
 }
 
 TEST(ImageCodec, RejectsMismatchedBuffers) {
