@@ -5,10 +5,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "solid/formats/status.h"
 #include "solid/render/params.h"
@@ -40,6 +42,10 @@ void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags);
 // The params file or preset, with --resolution applied; kInvalidArgument when neither
 // is given or the resolution is malformed.
 Result<render::LayoutParams> ResolveParams(const ParamsFlags& flags);
+
+// "0-3, 7, 9-12": inclusive ranges, or sorted indices joined into ranges.
+std::string Ranges(const std::vector<std::pair<int64_t, int64_t>>& ranges);
+std::string Ranges(const std::vector<int64_t>& sorted);
 
 // Prints "solid: <message>" on stderr and returns the exit code for the status.
 int Fail(const Status& status);
