@@ -1,6 +1,7 @@
 // `solid convert` interrupted: SIGKILL at random points, or SIGTERM/SIGINT, then rerun.
 // The catalog is never corrupt, no row points at a missing or different file, and the
 // rerun ends with the assets and catalog of an undisturbed run.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 

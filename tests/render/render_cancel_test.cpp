@@ -1,5 +1,6 @@
 // Stopping `solid render` and `solid sample` through their cancellation flag, and the
 // shard locks that keep two renders of one shard apart, as library calls.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -91,7 +92,8 @@ TEST(RenderCancel, TheShardInFlightIsAbandonedOrFinishedAndARerunCompletesIt) {
     EXPECT_EQ(report->images + report->failed_images, abandoned ? 3 : 6);
     EXPECT_EQ(report->shards_missing, abandoned ? (std::vector<int64_t>{1, 2, 3}) : (std::vector<int64_t>{2, 3}));
     EXPECT_TRUE(Leftovers(out).empty());
-    for (const ShardFile& f : ListShards(out).value().targets) {
+    const ShardListing listing = ListShards(out).value();
+    for (const ShardFile& f : listing.targets) {
       const ValidationReport v = ValidateShardFile(f.path);
       EXPECT_TRUE(v.ok()) << v.ToJson().dump(2);
     }
