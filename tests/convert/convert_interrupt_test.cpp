@@ -132,7 +132,7 @@ TEST(ConvertInterrupt, StopSignalsFinishTheAssetsInFlightAndTheRerunResumes) {
   const fs::path out = dir.path() / "stopped";
   Rng rng(0x6b3, 1);
   int stops = 0;
-  for (int attempt = 0; attempt < 12; ++attempt) {
+  for (int attempt = 0; attempt < 5; ++attempt) {
     const int signo = attempt % 2 == 0 ? SIGINT : SIGTERM;
     fixtures::BackgroundProcess convert(Procedural(out), dir.path() / "log");
     ASSERT_TRUE(convert.WaitUntil([&] { return convert.Catches(signo); }, std::chrono::seconds(60)));
