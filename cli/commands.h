@@ -5,10 +5,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "solid/formats/status.h"
 #include "solid/render/assets.h"
@@ -45,6 +47,10 @@ Result<render::LayoutParams> ResolveParams(const ParamsFlags& flags);
 // --asset-cache-mb N: the memory cap of the decoded-asset cache, MiB (default 2048).
 void AddAssetCacheFlag(CLI::App* cmd, uint64_t* megabytes);
 render::AssetLibraryOptions AssetLibraryOptionsFor(uint64_t megabytes);
+
+// "0-3, 7, 9-12": inclusive ranges, or sorted indices joined into ranges.
+std::string Ranges(const std::vector<std::pair<int64_t, int64_t>>& ranges);
+std::string Ranges(const std::vector<int64_t>& sorted);
 
 // Prints "solid: <message>" on stderr and returns the exit code for the status.
 int Fail(const Status& status);

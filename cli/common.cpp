@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "exit_codes.h"
+#include "signals.h"
 
 namespace solid::cli {
 
@@ -53,9 +54,29 @@ render::AssetLibraryOptions AssetLibraryOptionsFor(uint64_t megabytes) {
   return options;
 }
 
+std::string Ranges(const std::vector<std::pair<int64_t, int64_t>>& ranges) {
+  std::string out;
+  for (const auto& [a, b] : ranges) {
+    out += (out.empty() ? "" : ", ") + (a == b ? std::to_string(a) : fmt::format("{}-{}", a, b));
+  }
+  return out;
+}
+
+std::string Ranges(const std::vector<int64_t>& sorted) {
+  std::vector<std::pair<int64_t, int64_t>> ranges;
+  for (int64_t k : sorted) {
+    if (!ranges.empty() && ranges.back().second + 1 == k) {
+      ranges.back().second = k;
+    } else {
+      ranges.emplace_back(k, k);
+    }
+  }
+  return Ranges(ranges);
+}
+
 int Fail(const Status& status) {
   fmt::print(stderr, "solid: {}\n", status.message());
-  return ExitCodeFor(status);
+  return status.code() == StatusCode::kCancelled ? StopExitCode() : ExitCodeFor(status);
 }
 
 }  // namespace solid::cli

@@ -5,6 +5,7 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "progress.h"
+#include "signals.h"
 #include "solid/convert/convert.h"
 
 namespace solid::cli {
@@ -53,6 +54,7 @@ int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport
       fmt::print("{}\t{}\t{:.0f}\n", item.status == "up_to_date" ? "SKIP" : "OK", item.key, item.milliseconds);
     }
   };
+  options.cancel = InstallStopHandlers();
   Result<convert::ConvertReport> report = [&] {
     ProgressLine progress("convert", "assets");
     options.progress = progress.Callback();
@@ -78,6 +80,12 @@ int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport
     fmt::print("{:<18} {} materials (they render from textures/unknown/; per room: catalog extras "
                "unmatched_texture_folders)\n", "unmatched folders", r.textures->unmatched.size());
     for (const auto& [material, folder] : r.textures->unmatched) fmt::print("  {} -> {}/\n", material, folder);
+  }
+  if (r.cancelled) {
+    fmt::print(stderr, "solid: stopped by {}: {} of {} assets done, each with its file and catalog row; {} not "
+                       "started\nsolid: to resume, run the same command again:\n  {}\n",
+               StopSignalName(), r.assets - r.not_started, r.assets, r.not_started, CommandLine());
+    return StopExitCode();
   }
   if (r.failed > 0) {
     fmt::print(stderr, "solid: {} assets failed; reasons: solid inspect {}\n", r.failed, f.out);

@@ -12,6 +12,8 @@ enum ExitCode : int {
   kExitBadInput = 3,     // input missing, unparsable, corrupt, over a limit or of another version
   kExitIoError = 4,      // the operating system refused a read or write
   kExitInternal = 70,    // a bug or an unexpected library failure
+  kExitSigint = 130,     // stopped by SIGINT (128 + 2) before the work was done
+  kExitSigterm = 143,    // stopped by SIGTERM (128 + 15) before the work was done
 };
 
 inline int ExitCodeFor(const Status& s) {
@@ -26,6 +28,8 @@ inline int ExitCodeFor(const Status& s) {
     case StatusCode::kUnsupportedVersion:
     case StatusCode::kNotFound: return kExitBadInput;
     case StatusCode::kInternal: return kExitInternal;
+    // Only the CLI's signal handler cancels; Fail() refines this to the signal received.
+    case StatusCode::kCancelled: return kExitSigint;
   }
   return kExitInternal;
 }

@@ -4,6 +4,7 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "progress.h"
+#include "signals.h"
 #include "solid/export/coco.h"
 #include "solid/export/report.h"
 
@@ -44,11 +45,18 @@ Command AddExport(CLI::App& app) {
                                      : exporters::CocoMasks::kBoth;
     o->categories = f->categories == "model" ? exporters::CocoCategories::kModel : exporters::CocoCategories::kObject;
     o->images = f->images == "link" ? exporters::CocoImages::kLink : exporters::CocoImages::kCopy;
+    o->cancel = InstallStopHandlers();
     Result<exporters::CocoExportReport> result = [&] {
       ProgressLine line("export", "images");
       o->progress = line.Callback();
       return exporters::ExportCoco(*o);
     }();
+    if (result.status().code() == StatusCode::kCancelled) {
+      fmt::print(stderr, "solid: stopped by {}: {}; the image files written are complete\n"
+                         "solid: to finish, run the same command again (it writes every file anew):\n  {}\n",
+                 StopSignalName(), result.status().message(), CommandLine());
+      return StopExitCode();
+    }
     SOLID_ASSIGN_OR_RETURN_EXIT(exporters::CocoExportReport r, std::move(result));
     fmt::print("{}: {} images, {} annotations in {} categor{} ({} instances with an empty mask skipped), "
                "{:.1f} MB of images, {:.2f} s\n",

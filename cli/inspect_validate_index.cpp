@@ -81,6 +81,11 @@ Command AddIndex(CLI::App& app) {
     }();
     if (!report.ok()) return Fail(report.status());
     for (const Status& s : report->skipped) fmt::print(stderr, "solid: skipped: {}\n", s.message());
+    if (!report->missing_shards.empty()) {
+      fmt::print(stderr, "solid: {}: shards {} are not there yet (not rendered, or being rendered): the index covers "
+                         "the complete shards only; run solid index again once they are\n",
+                 *path, Ranges(report->missing_shards));
+    }
     fmt::print("indexed {} shards ({} images, {} instances), {} query shards ({} views), {} models{}\n",
                report->shards, report->images, report->instances, report->query_shards, report->query_views,
                report->models, report->skipped.empty() ? "" : fmt::format("; {} skipped", report->skipped.size()));

@@ -5,10 +5,12 @@
 
 #include "commands.h"
 #include "exit_codes.h"
+#include "signals.h"
 
 int main(int argc, char** argv) {
   // Numbers in every file we read and write use the C locale, whatever the user's is.
   std::setlocale(LC_ALL, "C");
+  solid::cli::SetCommandLine(argc, argv);
   CLI::App app{"solid: label-free synthetic pretraining data for object detectors.\n"
                "Run 'solid COMMAND --help' for the flags of a command."};
   app.set_version_flag("--version", SOLID_VERSION);

@@ -4,6 +4,7 @@
 
 #include "commands.h"
 #include "exit_codes.h"
+#include "signals.h"
 #include "solid/formats/files.h"
 #include "solid/optimize/optimize.h"
 #include "solid/render/sample.h"
@@ -58,10 +59,16 @@ std::string Percent(Metric m, double v) {
 }
 
 void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
-  fmt::print("{} after {} evaluations, {} round(s), {:.1f} s: {}\n", r.all_met ? "MET" : "NOT MET", r.evaluations,
-             r.rounds, r.seconds, r.stop_reason);
-  fmt::print("evaluation resolution {}x{}; achieved = {} fresh layouts (95% CI)\n", r.eval_width, r.eval_height,
-             r.confirmation.images);
+  fmt::print("{} after {} evaluations, {} round(s), {:.1f} s: {}\n",
+             r.cancelled ? "STOPPED" : r.all_met ? "MET" : "NOT MET", r.evaluations, r.rounds, r.seconds,
+             r.stop_reason);
+  if (r.cancelled) {
+    fmt::print("evaluation resolution {}x{}; achieved = the search's common layouts (95% CI), unconfirmed\n",
+               r.eval_width, r.eval_height);
+  } else {
+    fmt::print("evaluation resolution {}x{}; achieved = {} fresh layouts (95% CI)\n", r.eval_width, r.eval_height,
+               r.confirmation.images);
+  }
   fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", "metric", "target", "tol", "achieved", r.pilot ? "  pilot (output res)" : "");
   for (const optimize::TargetResult& t : r.results) {
     const Metric m = t.target.metric;
@@ -122,10 +129,20 @@ int RunOptimize(OptimizeFlags& f) {
                t.evaluation, t.round, t.phase, t.objective, m.objects_per_image.mean, 100 * m.occlusion.mean,
                100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, t.seconds);
   };
-  SOLID_ASSIGN_OR_RETURN_EXIT(optimize::OptimizeReport report, optimize::Optimize(library, o));
+  o.cancel = InstallStopHandlers();
+  Result<optimize::OptimizeReport> optimized = optimize::Optimize(library, o);
+  if (optimized.status().code() == StatusCode::kCancelled) {
+    fmt::print(stderr, "solid: {} ({}); nothing written\n", optimized.status().message(), StopSignalName());
+    return StopExitCode();
+  }
+  SOLID_ASSIGN_OR_RETURN_EXIT(optimize::OptimizeReport report, std::move(optimized));
   nlohmann::json params = render::ParamsToJson(report.best);
-  params["$comment"] = fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
-                                   report.all_met ? "met" : "NOT met");
+  params["$comment"] = report.cancelled
+                           ? fmt::format("solid optimize: stopped by {} after {} evaluations; the best point so far, "
+                                         "not confirmed on fresh layouts",
+                                         StopSignalName(), report.evaluations)
+                           : fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
+                                         report.all_met ? "met" : "NOT met");
   const std::string text = params.dump(2) + "\n";
   const std::string trace = f.trace.empty() ? std::string() : optimize::TraceText(report, f.trace);
   auto bytes = [](const std::string& t) { return std::span(reinterpret_cast<const uint8_t*>(t.data()), t.size()); };
@@ -138,6 +155,14 @@ int RunOptimize(OptimizeFlags& f) {
     std::cout << report.ToJson().dump(2) << "\n";
   } else {
     PrintReport(report, f.out);
+  }
+  if (report.cancelled) {
+    fmt::print(stderr, "solid: stopped by {}: {} evaluations done; the best point so far is in {}{} (not confirmed "
+                       "on fresh layouts). A rerun starts the search again; to go on from here, start it from that "
+                       "file: --params {}\n",
+               StopSignalName(), report.evaluations, f.out, f.trace.empty() ? "" : ", the evaluations in " + f.trace,
+               f.out);
+    return StopExitCode();
   }
   return report.all_met ? kExitOk : kExitProblems;
 }

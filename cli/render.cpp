@@ -6,6 +6,7 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "progress.h"
+#include "signals.h"
 #include "solid/render/render_dataset.h"
 
 namespace solid::cli {
@@ -49,8 +50,10 @@ Result<std::optional<std::pair<int64_t, int64_t>>> ShardRange(const RenderFlags&
 }
 
 void PrintReport(const render::RenderReport& r, const render::LayoutParams& p) {
-  fmt::print("shards             {} requested: {} rendered ({} repaired), {} already present\n", r.shards_requested,
-             r.shards_rendered, r.shards_repaired, r.shards_present);
+  fmt::print("shards             {} requested: {} rendered ({} repaired), {} already present{}\n", r.shards_requested,
+             r.shards_rendered, r.shards_repaired, r.shards_present,
+             r.shards_by_others > 0 ? fmt::format(" ({} published by other processes meanwhile)", r.shards_by_others)
+                                    : "");
   fmt::print("images             {} at {}x{}, {} instances", r.images, p.width, p.height, r.instances);
   if (r.failed_images > 0) fmt::print(", {} left out (no usable layout)", r.failed_images);
   fmt::print("\n");
@@ -102,6 +105,8 @@ int Run(const RenderFlags& f) {
   if (shards && !f.json) {
     fmt::print(stderr, "solid: shards {}-{} (from {})\n", shards->first, shards->second, shard_source);
   }
+  options.cancel = InstallStopHandlers();
+  options.on_note = [](const std::string& line) { fmt::print(stderr, "solid: {}\n", line); };
   Result<render::RenderReport> report = [&] {
     ProgressLine progress("render", "images");
     options.progress = progress.Callback();
@@ -112,6 +117,19 @@ int Run(const RenderFlags& f) {
     std::cout << report->ToJson().dump(2) << "\n";
   } else {
     PrintReport(*report, params);
+  }
+  if (report->cancelled) {
+    const render::RenderReport& r = *report;
+    fmt::print(stderr, "solid: stopped by {}: {} of {} requested shards complete ({} rendered by this run){}; {}\n",
+               StopSignalName(), r.shards_requested - static_cast<int64_t>(r.shards_missing.size()),
+               r.shards_requested, r.shards_rendered,
+               r.abandoned_shard >= 0
+                   ? fmt::format(", shard {} abandoned (its temporary file removed, nothing published)", r.abandoned_shard)
+                   : "",
+               r.shards_missing.empty() ? "query shards and index not finished"
+                                        : "missing shards: " + Ranges(r.shards_missing));
+    fmt::print(stderr, "solid: to resume, run the same command again:\n  {}\n", CommandLine());
+    return StopExitCode();
   }
   return report->failed_images > 0 ? kExitProblems : kExitOk;
 }

@@ -7,6 +7,7 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "progress.h"
+#include "signals.h"
 #include "solid/formats/files.h"
 #include "solid/render/sample.h"
 #include "solid/render/scene_export.h"
@@ -78,11 +79,17 @@ int Run(const SampleFlags& f) {
   options.first = f.first;
   options.layouts = f.layouts;
   options.jobs = f.jobs;
+  options.cancel = InstallStopHandlers();
   Result<render::SampleReport> report = [&] {
     ProgressLine progress("sample", "layouts");
     options.progress = progress.Callback();
     return render::RunSample(*sampler, options);
   }();
+  if (report.status().code() == StatusCode::kCancelled) {
+    fmt::print(stderr, "solid: {} ({}); sample writes no file: rerun it for the report\n", report.status().message(),
+               StopSignalName());
+    return StopExitCode();
+  }
   if (!report.ok()) return Fail(report.status());
   if (f.json) {
     nlohmann::json j = report->ToJson();

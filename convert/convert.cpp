@@ -301,12 +301,27 @@ json OptionsIdentity(const ConvertOptions& o) {
           {"texture_library", o.texture_library}};
 }
 
+// Temporaries that killed writers left in the assets directory (a killed convert leaves
+// "<asset>.glb.tmp-<host>-<pid>-<n>"), in one pass over the tree rather than one per asset.
+void RemoveStaleTempsUnder(const fs::path& out) {
+  std::error_code ec;
+  std::vector<fs::path> finals;
+  for (fs::recursive_directory_iterator it(out, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (files::IsTempPath(it->path())) finals.push_back(it->path().parent_path() / name.substr(0, name.find(".tmp-")));
+  }
+  std::sort(finals.begin(), finals.end());
+  finals.erase(std::unique(finals.begin(), finals.end()), finals.end());
+  for (const fs::path& f : finals) files::RemoveStaleTemps(f);
+}
+
 // Runs the jobs on options.jobs threads; the calling thread owns the catalog.
 Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const ConvertOptions& options) {
   auto start = std::chrono::steady_clock::now();
   std::error_code ec;
   fs::create_directories(out, ec);
   if (ec) return IoError(fmt::format("{}: cannot create the output directory: {}", out.string(), ec.message()));
+  RemoveStaleTempsUnder(out);
   ConvertReport report;
   report.catalog = out / "catalog.sqlite";
   SOLID_ASSIGN_OR_RETURN(Catalog catalog, Catalog::OpenForWriting(report.catalog));
@@ -414,29 +429,32 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
 
   int threads = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::max(1, std::min<int>(threads, static_cast<int>(std::max<size_t>(1, jobs.size()))));
-  std::atomic<bool> stop{false};
-  int running = threads;
+  std::atomic<bool> stop{false};  // an output error: the batch cannot go on
+  int workers_left = threads;
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&] {
-      for (size_t i = next++; i < jobs.size() && !stop; i = next++) {
+      // Cancelled: the asset in flight is finished (its file and row stay consistent), no
+      // new one is started.
+      for (size_t i = next++; i < jobs.size() && !stop && !CancelRequested(options.cancel); i = next++) {
         Finished f = work(jobs[i]);
         std::lock_guard lock(mu);
         finished.push_back(std::move(f));
         cv.notify_one();
       }
       std::lock_guard lock(mu);
-      --running;
+      --workers_left;
       cv.notify_one();
     });
   }
   // The first error that stops the batch; assets finished meanwhile are still recorded.
   Status output_status = Status::Ok(), catalog_status = Status::Ok();
-  for (int64_t done = 0;; ++done) {
+  size_t done = 0;
+  for (;; ++done) {
     Finished f;
     {
       std::unique_lock lock(mu);
-      cv.wait(lock, [&] { return !finished.empty() || running == 0; });
+      cv.wait(lock, [&] { return !finished.empty() || workers_left == 0; });
       if (finished.empty()) break;
       f = std::move(finished.front());
       finished.pop_front();
@@ -462,12 +480,14 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
       ++report.up_to_date;
     }
     if (options.on_item) options.on_item(f.outcome);
-    if (options.progress) options.progress(done + 1, static_cast<int64_t>(jobs.size()));
+    if (options.progress) options.progress(static_cast<int64_t>(done + 1), static_cast<int64_t>(jobs.size()));
   }
   for (std::thread& t : pool) t.join();
   SOLID_RETURN_IF_ERROR(output_status);
   SOLID_RETURN_IF_ERROR(catalog_status);
   SOLID_RETURN_IF_ERROR(catalog.Close());
+  report.not_started = static_cast<int64_t>(jobs.size() - done);
+  report.cancelled = report.not_started > 0;
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }

@@ -133,6 +133,11 @@ nlohmann::json Annotation(const InstanceRecord& in, int64_t id, int64_t category
   return a;
 }
 
+Status Stopped(const CocoExportOptions& options, int64_t images, int64_t planned) {
+  return CancelledError(fmt::format("{}: stopped after {} of {} images; annotations.json not written",
+                                    options.out_dir.string(), images, planned));
+}
+
 }  // namespace
 
 Result<CocoExportReport> ExportCoco(const CocoExportOptions& options) {
@@ -162,6 +167,7 @@ Result<CocoExportReport> ExportCoco(const CocoExportOptions& options) {
     SOLID_ASSIGN_OR_RETURN(ShardReader * shard, dataset.Shard(file.index));
     SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, shard->ImageIds());
     for (int64_t id : ids) {
+      if (CancelRequested(options.cancel)) return Stopped(options, report.images, manifest.images);
       SOLID_ASSIGN_OR_RETURN(ImageRecord image, shard->ReadImage(id));
       // Annotations take the mask size from the manifest (pass 2 does not read images).
       if (image.width != manifest.width || image.height != manifest.height) {
@@ -188,6 +194,7 @@ Result<CocoExportReport> ExportCoco(const CocoExportOptions& options) {
   for (const ShardFile& file : dataset.shards().targets) {
     SOLID_ASSIGN_OR_RETURN(ShardReader * shard, dataset.Shard(file.index));
     SOLID_RETURN_IF_ERROR(shard->ForEachInstance([&](const InstanceRecord& in) -> Status {
+      if (CancelRequested(options.cancel)) return Stopped(options, report.images, manifest.images);
       const uint64_t area = options.masks == CocoMasks::kFull ? in.full_area : in.visible_area;
       if (area == 0) {
         ++report.skipped_invisible;

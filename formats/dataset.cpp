@@ -6,6 +6,7 @@
 #include <map>
 #include <mutex>
 
+#include "solid/formats/file_lock.h"
 #include "solid/formats/files.h"
 #include "solid/formats/checksum.h"
 #include "solid/formats/json_schema.h"
@@ -138,7 +139,8 @@ Result<ShardListing> ListShards(const fs::path& root) {
     if (!fs::exists(dir, ec)) return Status::Ok();
     for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
       const fs::path& p = it->path();
-      if (files::IsTempPath(p)) continue;
+      // Temporaries and locks of writers (running, or killed) are never shards.
+      if (files::IsTempPath(p) || files::IsLockPath(p)) continue;
       Result<int64_t> index = parse(p.filename().string());
       // A shard may be a symbolic link, but not one that leads out of the dataset.
       const bool escapes =

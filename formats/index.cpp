@@ -75,6 +75,15 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
   SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(root));
   SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(root));
   IndexReport report;
+  // The gaps between the listed shards (sorted by index), without a loop over the
+  // manifest's shard count, which an untrusted manifest could make huge.
+  int64_t expected = 0;
+  for (const ShardFile& file : listing.targets) {
+    if (file.index >= manifest.ShardCount()) break;
+    if (file.index > expected) report.missing_shards.emplace_back(expected, file.index - 1);
+    expected = file.index + 1;
+  }
+  if (expected < manifest.ShardCount()) report.missing_shards.emplace_back(expected, manifest.ShardCount() - 1);
   SOLID_RETURN_IF_ERROR(db.Exec("BEGIN"));
   SOLID_RETURN_IF_ERROR(InsertMeta(db, "format_version", std::to_string(manifest.format_version)));
   SOLID_RETURN_IF_ERROR(InsertMeta(db, "params_hash", Hex64(manifest.ParamsHash())));

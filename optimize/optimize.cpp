@@ -107,7 +107,7 @@ struct Search {
   }
 
   EvaluationOptions Eval(int64_t first, int64_t n) const {
-    return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs};
+    return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs, options.cancel};
   }
 
   // One evaluation on the common seeds; `exact` evaluates those params as given (the start
@@ -289,6 +289,7 @@ Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::
   sample.layouts = options.layouts;
   sample.jobs = options.jobs;
   sample.area_scale = area_scale;
+  sample.cancel = options.cancel;
   SOLID_ASSIGN_OR_RETURN(const render::SampleReport report, render::RunSample(*sampler, sample));
   Evaluation e;
   e.metrics = report.metrics;
@@ -330,37 +331,57 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
   }
   const std::vector<double> start_unit = s.ToUnit(options.space.Encode(options.start));
   Evaluation confirmation;
-  for (s.round = 0; s.round < options.max_rounds; ++s.round) {
-    r.rounds = s.round + 1;
-    s.layouts = options.layouts << s.round;
-    s.phase = "start";
-    s.best_objective = std::numeric_limits<double>::infinity();
-    // The start itself, exactly: a target it already meets costs no search.
-    if (s.round == 0) {
-      SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start).status());
-    } else {
-      const LayoutParams previous = r.best;
-      SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous).status());
-    }
-    if (s.met) {
-      r.stop_reason = "every target within the search margin on the common seeds";
-    } else if (s.OutOfBudget()) {
-      r.stop_reason = r.evaluations >= options.max_evaluations ? "max evaluations" : "time budget";
-    } else {
-      if (global && s.round == 0) {
-        s.phase = "global";
-        const int budget = options.global_evaluations > 0 ? options.global_evaluations : options.max_evaluations / 3;
-        SOLID_RETURN_IF_ERROR(s.Minimize(*global, options.global_algorithm, budget, 1.0));
+  const Status searched = [&]() -> Status {
+    for (s.round = 0; s.round < options.max_rounds; ++s.round) {
+      r.rounds = s.round + 1;
+      s.layouts = options.layouts << s.round;
+      s.phase = "start";
+      s.best_objective = std::numeric_limits<double>::infinity();
+      // The start itself, exactly: a target it already meets costs no search.
+      if (s.round == 0) {
+        SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start).status());
+      } else {
+        const LayoutParams previous = r.best;
+        SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous).status());
       }
-      if (!s.met && !s.OutOfBudget()) {
-        s.phase = "local";
-        SOLID_RETURN_IF_ERROR(
-            s.Minimize(local, options.algorithm, options.max_evaluations - r.evaluations, std::ldexp(1.0, -s.round)));
+      if (s.met) {
+        r.stop_reason = "every target within the search margin on the common seeds";
+      } else if (s.OutOfBudget()) {
+        r.stop_reason = r.evaluations >= options.max_evaluations ? "max evaluations" : "time budget";
+      } else {
+        if (global && s.round == 0) {
+          s.phase = "global";
+          const int budget = options.global_evaluations > 0 ? options.global_evaluations : options.max_evaluations / 3;
+          SOLID_RETURN_IF_ERROR(s.Minimize(*global, options.global_algorithm, budget, 1.0));
+        }
+        if (!s.met && !s.OutOfBudget()) {
+          s.phase = "local";
+          SOLID_RETURN_IF_ERROR(
+              s.Minimize(local, options.algorithm, options.max_evaluations - r.evaluations, std::ldexp(1.0, -s.round)));
+        }
       }
+      SOLID_ASSIGN_OR_RETURN(confirmation, Evaluate(r.best, library, s.Eval(kConfirmFirst, options.confirm_layouts)));
+      if (Within(confirmation.metrics, options.targets, 1.0) || s.OutOfBudget()) break;
     }
-    SOLID_ASSIGN_OR_RETURN(confirmation, Evaluate(r.best, library, s.Eval(kConfirmFirst, options.confirm_layouts)));
-    if (Within(confirmation.metrics, options.targets, 1.0) || s.OutOfBudget()) break;
+    return Status::Ok();
+  }();
+  if (searched.code() == StatusCode::kCancelled) {
+    if (s.best_unit.empty()) return CancelledError("optimizer: stopped before the first evaluation finished");
+    r.cancelled = true;
+    r.all_met = false;
+    r.stop_reason = fmt::format("stopped after {} evaluations, before the best point was confirmed", r.evaluations);
+    r.best_x = s.ToUnits(s.best_unit.data());
+    for (const Target& t : options.targets) {
+      TargetResult tr;
+      tr.target = t;
+      tr.predicted = MetricOf(r.search_metrics, t.metric);
+      tr.met = std::abs(tr.predicted.mean - t.value) <= t.tolerance;
+      r.results.push_back(std::move(tr));
+    }
+    r.seconds = SecondsSince(s.start);
+    return std::move(s.report);
   }
+  SOLID_RETURN_IF_ERROR(searched);
   r.confirmation = confirmation.metrics;
   r.best_x = s.ToUnits(s.best_unit.data());
   r.all_met = true;
@@ -419,6 +440,7 @@ nlohmann::json OptimizeReport::ToJson() const {
                       {"rounds", rounds},
                       {"seconds", seconds},
                       {"stop_reason", stop_reason},
+                      {"cancelled", cancelled},
                       {"params", render::ParamsToJson(best)}};
   if (pilot) j["pilot"] = pilot->ToJson();
   return j;

@@ -16,6 +16,7 @@
 #include <fmt/ranges.h>
 
 #include "solid/formats/checksum.h"
+#include "solid/formats/file_lock.h"
 #include "solid/formats/image_codec.h"
 #include "solid/formats/index.h"
 #include "solid/formats/random.h"
@@ -162,7 +163,19 @@ class Renderer {
     std::vector<std::string> failures;
     nlohmann::json lights = nlohmann::json::object();  // image id -> its light rig
     StageTimes stages;
+    const auto shard_start = Clock::now();
+    int64_t images = 0, instances = 0;  // the report's only once the shard is published
+    bool finishing = false;  // cancelled, but the rest of the shard is worth its time
     for (; written < end && status.ok(); ++written) {
+      if (!finishing && CancelRequested(options_.cancel)) {
+        const int64_t done = written - first;
+        const double per_image_s = done > 0 ? MillisecondsSince(shard_start) / 1000 / done : 0;
+        finishing = done > 0 && per_image_s * (end - written) <= options_.finish_shard_seconds;
+        if (!finishing) {
+          status = CancelledError(fmt::format("stopped after {} of its {} images", done, end - first));
+          break;
+        }
+      }
       RenderedImage image;
       {
         std::unique_lock lock(mutex);
@@ -190,8 +203,8 @@ class Renderer {
         models->insert(instance.model_key);
       }
       stages.writing += MillisecondsSince(start);
-      ++report_.images;
-      report_.instances += static_cast<int64_t>(image.instances.size());
+      ++images;
+      instances += static_cast<int64_t>(image.instances.size());
       Progress();
     }
     {
@@ -213,6 +226,8 @@ class Renderer {
     SOLID_RETURN_IF_ERROR(writer.Commit());
     stages.writing += MillisecondsSince(start);
     AddStages(&report_.stages, stages);
+    report_.images += images;
+    report_.instances += instances;
     return Status::Ok();
   }
 
@@ -228,8 +243,13 @@ class Renderer {
     };
     std::vector<ModelViews> rendered(end - first);
     std::atomic<size_t> next{first};
+    std::atomic<bool> cancelled{false};
     auto worker = [&] {
       for (size_t i = next++; i < end; i = next++) {
+        if (CancelRequested(options_.cancel)) {
+          cancelled = true;
+          return;
+        }
         ModelViews& out = rendered[i - first];
         out.model.model_key = models[i].key;
         Result<std::shared_ptr<const LoadedAsset>> asset = sampler_.library()->Model(i);
@@ -276,6 +296,7 @@ class Renderer {
     RunOnThreads(static_cast<int>(std::min<size_t>(WorkerCount(options_.jobs), std::max<size_t>(1, end - first))),
                  worker);
     report_.stages.query_views += MillisecondsSince(start);
+    if (cancelled) return CancelledError(paths_.query_shard(q).string() + ": stopped before its views were rendered");
 
     ShardWriteOptions write_options;
     write_options.replace_existing = replace;
@@ -351,7 +372,11 @@ nlohmann::json RenderReport::ToJson() const {
           {"query_shards_rendered", query_shards_rendered},
           {"query_shards_present", query_shards_present},
           {"query_views", query_views},
+          {"shards_by_others", shards_by_others},
           {"index_built", index_built},
+          {"cancelled", cancelled},
+          {"abandoned_shard", abandoned_shard >= 0 ? nlohmann::json(abandoned_shard) : nlohmann::json()},
+          {"shards_missing", shards_missing},
           {"stages", stages.ToJson()},
           {"seconds", seconds},
           {"peak_rss_bytes", peak_rss_bytes}};
@@ -415,6 +440,8 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
   RenderReport& report = renderer.report();
   report.shards_requested = shard_count == 0 ? 0 : last - first + 1;
   std::vector<std::pair<int64_t, bool>> todo;  // (shard, replace)
+  bool warned_unlocked = false, waiting_noted = false;
+  bool stopped = false;  // cancelled with something requested left undone
   std::set<std::string> models;
   int64_t todo_images = 0;
   for (int64_t k = first; k <= last && shard_count > 0; ++k) {
@@ -428,13 +455,79 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
     todo_images += std::min(manifest.shard_size, manifest.images - k * manifest.shard_size);
   }
   renderer.SetProgressTotal(todo_images);
-  for (const auto& [k, damaged] : todo) {
-    SOLID_RETURN_IF_ERROR(renderer.RenderShard(k, damaged, &models));
+  auto note = [&](const std::string& line) {
+    if (options.on_note) options.on_note(line);
+  };
+  // Renders shard k under its lock; false when another process holds the lock.
+  auto render_locked = [&](int64_t k, bool damaged) -> Result<bool> {
+    SOLID_ASSIGN_OR_RETURN(files::FileLock lock, files::FileLock::TryAcquire(paths.shard(k)));
+    if (lock.state() == files::FileLock::State::kHeldByOther) return false;
+    if (lock.state() == files::FileLock::State::kUnsupported && !warned_unlocked) {
+      note(fmt::format("{}; rendering without locks: two processes given one shard may both render it, and the "
+                       "first to publish wins", lock.unsupported_reason()));
+      warned_unlocked = true;
+    }
+    // Published by another process since the listing above, or while we waited for its lock.
+    std::error_code exists_ec;
+    if (!damaged && fs::exists(paths.shard(k), exists_ec)) {
+      ++report.shards_present;
+      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
+      return true;
+    }
+    const Status rendered = renderer.RenderShard(k, damaged, &models);
+    if (rendered.code() == StatusCode::kCancelled) {
+      report.abandoned_shard = k;  // the writer removed its temporary file
+      stopped = true;
+      return true;
+    }
+    if (rendered.code() == StatusCode::kAlreadyExists && !lock.held()) {
+      ++report.shards_present;  // no locks here, and another process published it first
+      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
+      return true;
+    }
+    SOLID_RETURN_IF_ERROR(rendered);
     ++report.shards_rendered;
     if (damaged) ++report.shards_repaired;
+    return true;
+  };
+  std::vector<std::pair<int64_t, bool>> held_elsewhere;
+  for (const auto& [k, damaged] : todo) {
+    if (stopped || CancelRequested(options.cancel)) {
+      stopped = true;
+      break;
+    }
+    SOLID_ASSIGN_OR_RETURN(const bool done, render_locked(k, damaged));
+    if (!done) {
+      note(fmt::format("shard {}: another process is rendering it ({} is locked); rendering the others first", k,
+                       files::LockPathFor(paths.shard(k)).string()));
+      held_elsewhere.emplace_back(k, damaged);
+    }
+  }
+  // What other processes hold: wait until they publish, or die and leave the shard to us.
+  for (size_t i = 0; i < held_elsewhere.size() && !stopped;) {
+    if (CancelRequested(options.cancel)) {
+      stopped = true;
+      break;
+    }
+    const auto [k, damaged] = held_elsewhere[i];
+    const int64_t present_before = report.shards_present;
+    SOLID_ASSIGN_OR_RETURN(const bool done, render_locked(k, damaged));
+    if (done) {
+      if (report.shards_present > present_before) {
+        ++report.shards_by_others;
+        note(fmt::format("shard {}: published by the other process", k));
+      }
+      ++i;
+      continue;
+    }
+    if (!waiting_noted) {
+      note(fmt::format("waiting for {} shard(s) that other processes are rendering", held_elsewhere.size() - i));
+      waiting_noted = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
 
-  if (options.queries) {
+  if (options.queries && !stopped) {
     const auto& catalog = sampler.library()->models();
     std::set<int64_t> query_shards;
     for (const std::string& key : models) {
@@ -452,7 +545,15 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
         ++report.query_shards_present;
         continue;
       }
+      if (CancelRequested(options.cancel)) {
+        stopped = true;
+        break;
+      }
       const Status written = renderer.RenderQueryShard(q, damaged);
+      if (written.code() == StatusCode::kCancelled) {
+        stopped = true;
+        break;
+      }
       if (written.code() == StatusCode::kAlreadyExists) {
         ++report.query_shards_present;  // another process of the farm published the same bytes first
         continue;
@@ -462,6 +563,17 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
     }
   }
 
+  if (stopped) {
+    for (int64_t k = first; k <= last && shard_count > 0; ++k) {
+      std::error_code missing_ec;
+      if (!fs::exists(paths.shard(k), missing_ec)) report.shards_missing.push_back(k);
+    }
+    // Stopped before the end; the index waits for the run that completes the dataset.
+    report.cancelled = true;
+    report.seconds = MillisecondsSince(start) / 1000;
+    report.peak_rss_bytes = PeakRssBytes();
+    return report;
+  }
   SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(options.out));
   if (static_cast<int64_t>(listing.targets.size()) == shard_count) {
     SOLID_ASSIGN_OR_RETURN(IndexReport index, BuildIndex(options.out));

@@ -88,6 +88,7 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
         std::lock_guard lock(error_mutex);
         if (!error.ok()) return;
       }
+      if (CancelRequested(options.cancel)) return;
       LayoutSummary& s = summaries[static_cast<size_t>(i)];
       Result<GeneratedLayout> g = GenerateLayout(sampler, options.seed, options.first + i);
       if (!g.ok()) {
@@ -121,7 +122,7 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
   if (options.progress) {
     // The calling thread reports progress and works.
     std::thread reporter_worker(worker);
-    while (done.load() < n) {
+    while (done.load() < n && !CancelRequested(options.cancel)) {
       {
         std::lock_guard lock(error_mutex);
         if (!error.ok()) break;
@@ -136,6 +137,9 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
   }
   for (std::thread& t : pool) t.join();
   SOLID_RETURN_IF_ERROR(error);
+  if (done.load() < n) {
+    return CancelledError(fmt::format("sample: stopped after {} of {} layouts", done.load(), n));
+  }
 
   SampleReport report;
   MetricsAccumulator metrics(options.area_scale);

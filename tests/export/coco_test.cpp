@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <fstream>
 #include <functional>
 #include <set>
@@ -219,6 +221,42 @@ TEST(ExportCoco, PycocotoolsReadsIt) {
   const fixtures::CommandRun run = fixtures::RunCommand("python3 -c " + fixtures::ShellQuote(script) + " " +
                                                         fixtures::ShellQuote((e.out / "annotations.json").string()));
   EXPECT_EQ(run.exit_status, 0) << run.output;
+}
+
+// Cancelled after 3 images (in pass 1) and during the annotations (pass 2): kCancelled,
+// no annotations.json and no temporary; the images written are whole; a rerun completes.
+TEST(ExportCoco, CancelledExportsLeaveNoAnnotationsAndARerunCompletes) {
+  TempDir dir;
+  const fs::path dataset = dir.path() / "dataset", out = dir.path() / "coco";
+  ASSERT_OK(WriteCrowded(dataset));
+  for (const int64_t stop_at : {3, 10}) {
+    SCOPED_TRACE(stop_at);
+    fs::remove_all(out);
+    CancelFlag cancel{false};
+    CocoExportOptions o;
+    o.dataset = dataset;
+    o.out_dir = out;
+    o.cancel = &cancel;
+    o.progress = [&](int64_t done, int64_t) {
+      if (done == stop_at) cancel = true;
+    };
+    Result<CocoExportReport> r = ExportCoco(o);
+    ASSERT_EQ(r.status().code(), StatusCode::kCancelled) << r.status().ToString();
+    EXPECT_NE(r.status().message().find(fmt::format("stopped after {} of 10 images", stop_at)), std::string::npos)
+        << r.status().message();
+    EXPECT_FALSE(fs::exists(out / "annotations.json"));
+    int64_t images = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(out)) {
+      EXPECT_FALSE(files::IsTempPath(entry.path())) << entry.path();
+      if (entry.is_regular_file()) ++images;
+    }
+    EXPECT_EQ(images, stop_at);
+  }
+  CocoExportOptions o;
+  o.dataset = dataset;
+  o.out_dir = out;
+  ASSERT_OK(ExportCoco(o).status());
+  EXPECT_EQ(ReadJson(out / "annotations.json")["images"].size(), 10u);
 }
 
 TEST(ExportCli, ExportsAndRefusesLinkWithoutASource) {

@@ -6,6 +6,8 @@
 
 #include "fixtures/layered_dataset.h"
 #include "formats/test_util.h"
+#include "solid/formats/file_lock.h"
+#include "solid/formats/files.h"
 #include "solid/formats/index.h"
 #include "solid/formats/inspect.h"
 #include "solid/formats/validate.h"
@@ -173,6 +175,28 @@ TEST(Index, IsRebuiltFromShardsAndStaleIndexIsReported) {
   EXPECT_FALSE(validation.ok());
   ASSERT_OK(BuildIndex(dir.path()).status());
   EXPECT_TRUE(ValidateDataset(dir.path()).ok());
+}
+
+// Shards not published yet (a render under way): the index covers the others, names the
+// missing ones as ranges, and ignores writers' temporaries and lock files.
+TEST(Index, NamesMissingShardsAndIgnoresTemporariesAndLocks) {
+  TempDir dir;
+  LayeredDatasetOptions options;
+  options.images = 14;
+  options.shard_size = 2;
+  ASSERT_OK(fixtures::WriteLayeredDataset(dir.path(), options));
+  const DatasetPaths paths(dir.path());
+  for (int k : {0, 3, 4, 6}) {
+    fs::rename(paths.shard(k), files::TempPathFor(paths.shard(k)));
+  }
+  { std::ofstream(files::LockPathFor(paths.shard(3))) << ""; }
+  auto report = BuildIndex(dir.path());
+  ASSERT_OK(report.status());
+  EXPECT_EQ(report->shards, 3);
+  EXPECT_EQ(report->images, 6);
+  EXPECT_TRUE(report->skipped.empty());
+  const std::vector<std::pair<int64_t, int64_t>> missing = {{0, 0}, {3, 4}, {6, 6}};
+  EXPECT_EQ(report->missing_shards, missing);
 }
 
 TEST(Index, MetricsMatchAFreshAccumulation) {

@@ -6,9 +6,15 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <signal.h>
+
+#include <algorithm>
+
+#include "fixtures/background_process.h"
 #include "fixtures/layered_dataset.h"
 #include "formats/test_util.h"
 #include "render/test_assets.h"
+#include "solid/formats/files.h"
 #include "solid/formats/inspect.h"
 #include "solid/formats/json_schema.h"
 
@@ -147,6 +153,37 @@ TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
   EXPECT_THAT(r->results[0].blocked_by, ::testing::Contains(HasSubstr("objects.attempts.low at its upper bound 4")));
 }
 
+// Cancelled after the 3rd evaluation: the report holds the best of those three,
+// unconfirmed; cancelled before any, there is nothing to report.
+TEST(Optimize, CancelledSearchReturnsTheBestPointSoFar) {
+  OptimizeOptions o = Reduced(Preset("more-objects"));
+  o.targets = {{Metric::kObjectsPerImage, 40, 0.25}};  // out of reach: the search would go on
+  CancelFlag cancel{false};
+  o.cancel = &cancel;
+  o.on_evaluation = [&](const TraceRow& row) {
+    if (row.evaluation == 3) cancel = true;
+  };
+  Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+  ASSERT_OK(r.status());
+  EXPECT_TRUE(r->cancelled);
+  EXPECT_FALSE(r->all_met);
+  ASSERT_EQ(r->evaluations, 3);
+  ASSERT_EQ(r->trace.size(), 3u);
+  double best = r->trace[0].objective;
+  for (const TraceRow& t : r->trace) best = std::min(best, t.objective);
+  EXPECT_EQ(Objective(r->search_metrics, o.targets), best);
+  ASSERT_EQ(r->results.size(), 1u);
+  EXPECT_EQ(r->results[0].predicted.mean, r->search_metrics.objects_per_image.mean);
+  EXPECT_EQ(r->confirmation.images, 0);
+  EXPECT_THAT(r->stop_reason, HasSubstr("stopped after 3 evaluations"));
+
+  CancelFlag already{true};
+  o.cancel = &already;
+  o.on_evaluation = nullptr;
+  r = Optimize(render::testing::ProceduralLibrary(), o);
+  EXPECT_EQ(r.status().code(), StatusCode::kCancelled) << r.status().ToString();
+}
+
 TEST(Optimize, UnknownAlgorithmIsAnError) {
   OptimizeOptions o = Reduced(Preset("more-objects"));
   o.targets = {{Metric::kObjectsPerImage, 10, 0.25}};
@@ -155,6 +192,32 @@ TEST(Optimize, UnknownAlgorithmIsAnError) {
   ASSERT_FALSE(r.ok());
   EXPECT_THAT(r.status().message(), HasSubstr("choose one of sbplx"));
   EXPECT_FALSE(TableRowTargets("no-such-row").ok());
+}
+
+// `solid optimize` stopped by SIGTERM after its second evaluation: exit 143, the best
+// point so far written as a params file that loads, and the trace of what was done.
+TEST(OptimizeCli, SigtermWritesTheBestPointSoFarAndTheTrace) {
+  solid::testing::TempDir dir;
+  const std::filesystem::path params = dir.path() / "params.json", trace = dir.path() / "trace.csv";
+  fixtures::BackgroundProcess run(
+      {SOLID_CLI_BINARY, "optimize", "--preset", "more-objects", "--assets",
+       render::testing::ProceduralAssetsDir().string(), "--out", params.string(), "--trace", trace.string(),
+       "--target-count", "40", "--layouts", "20", "--eval-resolution", "80x60", "--max-evals", "100000",
+       "--max-seconds", "100000", "--jobs", "1"},
+      dir.path() / "log");
+  ASSERT_TRUE(run.WaitUntil([&] { return run.Output().find("eval    2") != std::string::npos; },
+                            std::chrono::seconds(120)))
+      << run.Output();
+  run.Signal(SIGTERM);
+  ASSERT_EQ(run.Wait(), 143) << run.Output();
+  EXPECT_THAT(run.Output(), HasSubstr("stopped by SIGTERM"));
+  Result<render::LayoutParams> written = render::LoadParamsFile(params);
+  ASSERT_OK(written.status());
+  Result<std::vector<uint8_t>> text = files::ReadFile(trace, 1 << 20);
+  ASSERT_OK(text.status());
+  const auto rows = std::count(text->begin(), text->end(), '\n') - 1;  // less the header
+  EXPECT_GE(rows, 2);
+  EXPECT_THAT(std::string(text->begin(), text->end()), HasSubstr("\n1,0,start,"));
 }
 
 TEST(DatasetMetrics, MatchTheStoredAreas) {

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "solid/formats/cancel.h"
 #include "solid/formats/glb.h"
 #include "solid/formats/progress.h"
 #include "solid/convert/procedural.h"
@@ -56,6 +57,9 @@ struct ConvertOptions {
   bool texture_library = false;
   ProgressCallback progress;         // assets done / total
   std::function<void(const ItemOutcome&)> on_item;  // called from the calling thread
+  // Stops the batch (solid/formats/cancel.h): the assets in flight are finished and get
+  // their catalog rows, no other is started (report.cancelled, not_started).
+  const CancelFlag* cancel = nullptr;
 };
 
 // What the SceneNet texture-library step did.
@@ -78,6 +82,8 @@ struct ConvertReport {
   double seconds = 0;
   std::filesystem::path catalog;
   std::optional<TextureLibraryReport> textures;  // SceneNet with options.texture_library
+  bool cancelled = false;   // stopped through options.cancel
+  int64_t not_started = 0;  // assets left for a rerun when cancelled
 };
 
 // Fatal errors (a root that is not a ShapeNet tree, an output that cannot be created)

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 
+#include "solid/formats/cancel.h"
 #include "solid/formats/progress.h"
 #include "solid/formats/status.h"
 
@@ -39,6 +40,10 @@ struct CocoExportOptions {
   CocoImages images = CocoImages::kCopy;
   std::filesystem::path link_from;  // an earlier export's OUT_DIR, for kLink
   ProgressCallback progress;        // in images
+  // Stops between images and between annotations (solid/formats/cancel.h) with
+  // kCancelled: annotations.json is not written (its temporary is removed); the image
+  // files written so far are complete, and a rerun writes them again.
+  const CancelFlag* cancel = nullptr;
 };
 
 struct CocoExportReport {

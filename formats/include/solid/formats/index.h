@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "solid/formats/metrics.h"
@@ -18,6 +19,10 @@ struct IndexReport {
   int64_t shards = 0, query_shards = 0, images = 0, instances = 0, models = 0, query_views = 0;
   ProxyMetrics metrics;
   std::vector<Status> skipped;  // shards that could not be read, with the reason; not indexed
+  // Target shards of the manifest with no published file (not rendered yet, or being
+  // rendered), as inclusive ranges: an index made while renders run covers the complete
+  // shards only.
+  std::vector<std::pair<int64_t, int64_t>> missing_shards;
 };
 
 Result<IndexReport> BuildIndex(const std::filesystem::path& dataset_root, const ProgressCallback& progress = {});

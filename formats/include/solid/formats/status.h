@@ -26,6 +26,7 @@ enum class StatusCode {
   kNotFound,            // a file, row or key that must exist does not
   kAlreadyExists,       // refusing to overwrite something that exists
   kInternal,            // a third-party library failed in a way we cannot attribute
+  kCancelled,           // the caller asked the call to stop (solid/formats/cancel.h)
 };
 
 // Stable lower-case name of a code, e.g. "io_error"; used in messages and JSON output.
@@ -63,6 +64,7 @@ inline Status UnsupportedVersionError(std::string m) { return {StatusCode::kUnsu
 inline Status NotFoundError(std::string m) { return {StatusCode::kNotFound, std::move(m)}; }
 inline Status AlreadyExistsError(std::string m) { return {StatusCode::kAlreadyExists, std::move(m)}; }
 inline Status InternalError(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
+inline Status CancelledError(std::string m) { return {StatusCode::kCancelled, std::move(m)}; }
 
 // Either a value or a non-OK Status. C++20 has no std::expected.
 template <typename T>

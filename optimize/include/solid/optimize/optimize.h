@@ -25,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "solid/formats/cancel.h"
 #include "solid/formats/metrics.h"
 #include "solid/formats/status.h"
 #include "solid/optimize/search_space.h"
@@ -66,6 +67,7 @@ struct EvaluationOptions {
   // output's aspect ratio, or the layouts themselves change (the frustum test).
   int width = 0, height = 0;
   int jobs = 0;  // 0: all cores
+  const CancelFlag* cancel = nullptr;  // Evaluate returns kCancelled once it is set
 };
 
 struct Evaluation {
@@ -120,6 +122,10 @@ struct OptimizeOptions {
   // with twice the layouts and half the step, at most this many rounds in all.
   int max_rounds = 3;
   std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
+  // Stops the search (solid/formats/cancel.h): the evaluation in flight is dropped, and
+  // Optimize returns the best point of the evaluations done, unconfirmed (report.cancelled),
+  // or kCancelled when none was done.
+  const CancelFlag* cancel = nullptr;
 };
 
 
@@ -147,6 +153,10 @@ struct OptimizeReport {
   int evaluations = 0, rounds = 0;
   double seconds = 0;
   std::string stop_reason;
+  // Stopped through options.cancel: best and search_metrics are those of the evaluations
+  // done; results compare the search metrics (common seeds) with the targets, and
+  // confirmation, pilot and blocked_by are empty.
+  bool cancelled = false;
   std::vector<TraceRow> trace;
   nlohmann::json ToJson() const;  // everything but the trace
 };

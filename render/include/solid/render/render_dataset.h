@@ -15,12 +15,14 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "solid/formats/cancel.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/progress.h"
 #include "solid/render/layout.h"
@@ -49,6 +51,15 @@ struct RenderOptions {
   bool repair = false;
   uint64_t texture_cache_bytes = uint64_t{1} << 30;  // cap of decoded textures (shade.h TextureCache)
   ProgressCallback progress;  // in images
+  // Stops the render (solid/formats/cancel.h). The shard being written is finished when its
+  // remaining images should take at most finish_shard_seconds at the rate it has had so far
+  // (schedulers give SIGTERM 30 s before SIGKILL), and abandoned otherwise: its temporary
+  // file is removed and nothing is published. No new shard or query shard is started.
+  const CancelFlag* cancel = nullptr;
+  double finish_shard_seconds = 10;
+  // Lines for the user as they happen, from the calling thread: shards that another
+  // process holds the lock of, and waits for them.
+  std::function<void(const std::string&)> on_note;
 };
 
 // Wall time spent in each stage, summed over worker threads, milliseconds.
@@ -64,7 +75,14 @@ struct RenderReport {
   int64_t failed_images = 0;
   std::vector<std::string> failures;  // the first few reasons
   int64_t query_shards_rendered = 0, query_shards_present = 0, query_views = 0;
+  // Requested shards that another process was rendering (their lock was held) and that it
+  // published while this one waited; counted in shards_present too.
+  int64_t shards_by_others = 0;
   bool index_built = false;  // every target shard is present, and the index was rebuilt
+  // Stopped through options.cancel before everything requested was done.
+  bool cancelled = false;
+  int64_t abandoned_shard = -1;  // the shard given up when cancelled, -1 if none
+  std::vector<int64_t> shards_missing;  // requested shards absent at the end (when cancelled)
   StageTimes stages;
   double seconds = 0;
   int64_t peak_rss_bytes = 0;
@@ -79,6 +97,12 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
 // manifest (kAlreadyExists naming the difference otherwise), renders the requested
 // target shards that are missing (or damaged, with repair), the query shards they need,
 // and the index when every target shard is present.
+//
+// A target shard is rendered only under its lock (files::FileLock on the shard path), so
+// two processes given the same shard never both render it: one that finds the lock held
+// renders its other shards first, then waits for the holder to publish (or to die, and
+// renders the shard itself). Every requested shard is present when it returns, unless
+// cancelled (report.cancelled; a rerun resumes).
 Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options);
 
 }  // namespace solid::render

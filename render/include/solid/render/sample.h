@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "solid/formats/cancel.h"
 #include "solid/formats/metrics.h"
 #include "solid/formats/progress.h"
 #include "solid/render/layout.h"
@@ -51,6 +52,9 @@ struct SampleOptions {
   // the dataset it aims for.
   double area_scale = 1;
   ProgressCallback progress;
+  // Stops between layouts (solid/formats/cancel.h): RunSample then returns kCancelled,
+  // since metrics of the layouts done so far would depend on thread timing.
+  const CancelFlag* cancel = nullptr;
 };
 
 struct SampleReport {
