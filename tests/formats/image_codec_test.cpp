@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "fixtures/crafted_images.h"
 #include "formats/test_util.h"
 
 namespace solid {
@@ -56,26 +57,8 @@ TEST(ImageCodec, DepthExrKeepsHalfPrecision) {
   }
 }
 
-// PNG chunk CRC (ISO 3309), so that a forged header is otherwise valid.
-uint32_t Crc32(const uint8_t* data, size_t n) {
-  uint32_t crc = 0xFFFFFFFFu;
-  for (size_t i = 0; i < n; ++i) {
-    crc ^= data[i];
-    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-  }
-  return ~crc;
-}
-
 TEST(ImageCodec, RefusesDecompressionBombsBeforeDecoding) {
-  auto small = EncodeImage(Gradient(8, 8, 3), ImageFormat::kPng);
-  ASSERT_OK(small.status());
-  std::vector<uint8_t> bomb = *small;
-  // IHDR width and height live at bytes 16..23 (big-endian); claim 100000 x 100000.
-  const uint8_t kHuge[4] = {0x00, 0x01, 0x86, 0xA0};
-  std::copy(kHuge, kHuge + 4, bomb.begin() + 16);
-  std::copy(kHuge, kHuge + 4, bomb.begin() + 20);
-  uint32_t crc = Crc32(bomb.data() + 12, 17);  // chunk type and the 13 bytes of IHDR data
-  for (int k = 0; k < 4; ++k) bomb[29 + k] = static_cast<uint8_t>(crc >> (24 - 8 * k));
+  const std::vector<uint8_t> bomb = fixtures::PngClaimingSize(100000, 100000);
   auto decoded = DecodeImage(bomb, ImageFormat::kPng);
   ASSERT_FALSE(decoded.ok());
   EXPECT_EQ(decoded.status().code(), StatusCode::kLimitExceeded) << decoded.status().ToString();
