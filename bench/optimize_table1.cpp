@@ -4,6 +4,7 @@
 // targets. Not run by ctest: minutes per row.
 //
 //   optimize_table1 --assets DIR [--rooms DIR] [--rows a,b] [--max-seconds 300] [--jobs 2]
+//                   [--algorithm NAME]
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   app.add_option("--rows", rows, "Rows (preset names)")->delimiter(',');
   app.add_option("--max-seconds", defaults.max_seconds, "Time budget per row")->capture_default_str();
   app.add_option("--jobs", defaults.jobs, "Threads (default: all cores)");
+  app.add_option("--algorithm", defaults.algorithm, "Local algorithm (solid optimize --algorithm)")->capture_default_str();
   app.add_option("--pilot", defaults.pilot_layouts, "Pilot layouts at the output resolution")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   auto library = solid::render::AssetLibrary::Open(assets, rooms.empty() ? assets : rooms);

@@ -264,7 +264,8 @@ Command AddOptimize(CLI::App& app) {
   cmd->add_option("--tol-count", f->tol_count, "Tolerance of the count")->capture_default_str();
   cmd->add_option("--tol-occlusion", f->tol_occlusion, "Tolerance of the occlusion (fraction)")->capture_default_str();
   cmd->add_option("--tol-scale", f->tol_scale, "Tolerance of each scale share (fraction)")->capture_default_str();
-  cmd->add_option("--algorithm", o.algorithm, "Local NLopt algorithm: sbplx, neldermead, bobyqa, cobyla, praxis")
+  cmd->add_option("--algorithm", o.algorithm, "Local algorithm: gauss-newton (trust-region Gauss-Newton on the residuals), "
+                   "or NLopt's sbplx, neldermead, bobyqa, cobyla, praxis")
       ->capture_default_str();
   cmd->add_option("--global", o.global_algorithm, "Global NLopt algorithm run first: crs2, isres, esch, direct");
   cmd->add_option("--global-evals", o.global_evaluations, "Evaluations of the global phase (default: a third of --max-evals)");

@@ -46,7 +46,12 @@ struct NloptDeleter {
 };
 using Nlopt = std::unique_ptr<std::remove_pointer_t<nlopt_opt>, NloptDeleter>;
 
+// The local search of "gauss-newton" is ours (Search::GaussNewton); its bounded
+// subproblems are NLopt's SLSQP.
+constexpr std::string_view kGaussNewton = "gauss-newton";
+
 Result<nlopt_algorithm> AlgorithmByName(std::string_view name, bool global) {
+  if (!global && name == kGaussNewton) return NLOPT_LD_SLSQP;
   struct Entry {
     std::string_view name;
     nlopt_algorithm algorithm;
@@ -59,7 +64,7 @@ Result<nlopt_algorithm> AlgorithmByName(std::string_view name, bool global) {
       {"isres", NLOPT_GN_ISRES, true},      {"esch", NLOPT_GN_ESCH, true},
       {"direct", NLOPT_GN_DIRECT_L, true},
   };
-  std::string valid;
+  std::string valid = global ? "" : std::string(kGaussNewton);
   for (const Entry& e : kAlgorithms) {
     if (e.global != global) continue;
     if (e.name == name) return e.algorithm;
@@ -74,6 +79,69 @@ bool Within(const ProxyMetrics& m, const std::vector<Target>& targets, double sh
     if (!(std::abs(MetricOf(m, t.metric).mean - t.value) <= share * t.tolerance)) return false;
   }
   return true;
+}
+
+// (metric - target) / tolerance per target: the objective is their sum of squares.
+std::vector<double> Residuals(const ProxyMetrics& m, const std::vector<Target>& targets) {
+  std::vector<double> r;
+  for (const Target& t : targets) r.push_back((MetricOf(m, t.metric).mean - t.value) / t.tolerance);
+  return r;
+}
+
+double SquaredNorm(const std::vector<double>& v) {
+  double sum = 0;
+  for (double e : v) sum += e * e;
+  return sum;
+}
+
+// The Gauss-Newton subproblem: the step d within [lower, upper] that minimizes
+// |r + J d|^2 + damping |d|^2 (J row-major, targets x dimensions), by NLopt's SLSQP.
+struct LinearModel {
+  const std::vector<double>& r;
+  const std::vector<double>& jacobian;
+  size_t n;
+  double damping;
+
+  std::vector<double> Predict(const double* d) const {
+    std::vector<double> out = r;
+    for (size_t i = 0; i < r.size(); ++i) {
+      for (size_t j = 0; j < n; ++j) out[i] += jacobian[i * n + j] * d[j];
+    }
+    return out;
+  }
+  static double Value(unsigned n, const double* d, double* gradient, void* data) {
+    const auto* model = static_cast<const LinearModel*>(data);
+    const std::vector<double> predicted = model->Predict(d);
+    if (gradient) {
+      for (unsigned j = 0; j < n; ++j) {
+        gradient[j] = 2 * model->damping * d[j];
+        for (size_t i = 0; i < predicted.size(); ++i) gradient[j] += 2 * predicted[i] * model->jacobian[i * n + j];
+      }
+    }
+    double damped = 0;
+    for (unsigned j = 0; j < n; ++j) damped += d[j] * d[j];
+    return SquaredNorm(predicted) + model->damping * damped;
+  }
+};
+
+Result<std::vector<double>> SolveLinearModel(const LinearModel& model, const std::vector<double>& lower,
+                                             const std::vector<double>& upper) {
+  const unsigned n = static_cast<unsigned>(model.n);
+  Nlopt opt(nlopt_create(NLOPT_LD_SLSQP, n));
+  if (!opt) return InternalError("nlopt: cannot create slsqp");
+  nlopt_set_lower_bounds(opt.get(), lower.data());
+  nlopt_set_upper_bounds(opt.get(), upper.data());
+  nlopt_set_min_objective(opt.get(), &LinearModel::Value, const_cast<LinearModel*>(&model));
+  nlopt_set_xtol_abs1(opt.get(), 1e-7);
+  nlopt_set_maxeval(opt.get(), 1000);
+  std::vector<double> d(n);
+  for (unsigned j = 0; j < n; ++j) d[j] = std::clamp(0.0, lower[j], upper[j]);
+  double value = 0;
+  const nlopt_result result = nlopt_optimize(opt.get(), d.data(), &value);
+  if (result < 0 && result != NLOPT_ROUNDOFF_LIMITED) {
+    return InternalError(fmt::format("nlopt slsqp (Gauss-Newton step): {}", nlopt_result_to_string(result)));
+  }
+  return d;
 }
 
 // The state of one Optimize call, shared with NLopt's callback.
@@ -181,6 +249,104 @@ struct Search {
                          : SecondsSince(start) >= options.max_seconds     ? "time budget"
                                                                           : fmt::format("{} converged ({})", name,
                                                                                         nlopt_result_to_string(result));
+    return Status::Ok();
+  }
+
+  // Trust-region Gauss-Newton on the residual vector, from the best point. The objective is
+  // a sum of squares of a few residuals that respond smoothly, on the whole, to the knobs,
+  // but the common seeds leave steps as small as the layouts are discrete: generic
+  // derivative-free methods (a simplex, or a quadratic model of the sum) spend most of
+  // their evaluations on that noise. Here one forward difference per dimension, with a
+  // step well above the noise, gives the Jacobian; each step solves the linear model
+  // inside the trust region and the unit cube; Broyden updates keep the Jacobian current
+  // between recomputations.
+  Status GaussNewton(int max_evaluations, double step_scale) {
+    constexpr double kMinDifference = 0.05, kMaxDifference = 0.15;  // unit-cube forward-difference steps
+    constexpr double kMinRadius = 1e-3;
+    const size_t n = dims.size();
+    const int last = report.evaluations + max_evaluations;
+    auto stop = [&] { return met || OutOfBudget() || report.evaluations >= last; };
+    std::vector<double> x = best_unit;
+    std::vector<double> r = Residuals(report.search_metrics, options.targets);
+    const size_t m = r.size();
+    double radius = 0.3 * step_scale;
+    std::vector<double> jacobian(m * n);
+    bool jacobian_current = false;
+    bool jacobian_fresh = false;  // computed by differences, no Broyden update since
+    int rejected = 0;
+    std::string converged;
+    while (!stop()) {
+      if (!jacobian_current) {
+        const double h = std::clamp(radius, kMinDifference, kMaxDifference);
+        for (size_t j = 0; j < n && !stop(); ++j) {
+          std::vector<double> probe = x;
+          const double signed_h = x[j] + h <= 1 ? h : -h;
+          probe[j] += signed_h;
+          SOLID_RETURN_IF_ERROR(Run(probe, nullptr).status());
+          const std::vector<double> rj = Residuals(report.trace.back().metrics, options.targets);
+          for (size_t i = 0; i < m; ++i) jacobian[i * n + j] = (rj[i] - r[i]) / signed_h;
+        }
+        if (stop()) break;
+        jacobian_current = jacobian_fresh = true;
+      }
+      std::vector<double> lower(n), upper(n);
+      for (size_t j = 0; j < n; ++j) {
+        lower[j] = std::max(-radius, -x[j]);
+        upper[j] = std::min(radius, 1 - x[j]);
+      }
+      double column_norms = 0;
+      for (double e : jacobian) column_norms += e * e;
+      const LinearModel model{r, jacobian, n, 1e-4 * column_norms / static_cast<double>(n)};
+      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, SolveLinearModel(model, lower, upper));
+      const double predicted = SquaredNorm(r) - SquaredNorm(model.Predict(d.data()));
+      double step = 0;
+      for (double e : d) step = std::max(step, std::abs(e));
+      if (!(predicted > 0) || step < kMinRadius) {
+        // A stationary point of the model within the bounds; one measured afresh decides.
+        if (jacobian_fresh) {
+          converged = "no step within the bounds improves the linear model";
+          break;
+        }
+        jacobian_current = false;
+        continue;
+      }
+      std::vector<double> next = x;
+      for (size_t j = 0; j < n; ++j) next[j] = std::clamp(x[j] + d[j], 0.0, 1.0);
+      SOLID_RETURN_IF_ERROR(Run(next, nullptr).status());
+      const std::vector<double> r_next = Residuals(report.trace.back().metrics, options.targets);
+      const double actual = SquaredNorm(r) - SquaredNorm(r_next);
+      // Broyden's rank-one update: the Jacobian now maps d to the change it caused.
+      const std::vector<double> linear = model.Predict(d.data());
+      double dd = 0;
+      for (double e : d) dd += e * e;
+      for (size_t i = 0; i < m; ++i) {
+        const double miss = (r_next[i] - linear[i]) / dd;
+        for (size_t j = 0; j < n; ++j) jacobian[i * n + j] += miss * d[j];
+      }
+      jacobian_fresh = false;
+      if (actual > 0.1 * predicted) {
+        x = next;
+        r = r_next;
+        rejected = 0;
+        if (actual > 0.5 * predicted && step >= 0.99 * radius) radius = std::min(1.0, 2 * radius);
+      } else {
+        radius *= 0.5;
+        // Twice in a row: the rank-one updates no longer describe the function here.
+        if (++rejected >= 2) {
+          jacobian_current = false;
+          rejected = 0;
+        }
+        if (radius < kMinRadius) {
+          converged = "the trust region shrank below 0.001 of the bounds";
+          break;
+        }
+      }
+    }
+    report.stop_reason = met ? "every target within the search margin on the common seeds"
+                         : report.evaluations >= options.max_evaluations ? "max evaluations"
+                         : SecondsSince(start) >= options.max_seconds     ? "time budget"
+                         : converged.empty()                              ? "gauss-newton: evaluation budget"
+                                                                          : "gauss-newton: " + converged;
     return Status::Ok();
   }
 
@@ -356,8 +522,11 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         }
         if (!s.met && !s.OutOfBudget()) {
           s.phase = "local";
-          SOLID_RETURN_IF_ERROR(
-              s.Minimize(local, options.algorithm, options.max_evaluations - r.evaluations, std::ldexp(1.0, -s.round)));
+          const int budget = options.max_evaluations - r.evaluations;
+          const double step_scale = std::ldexp(1.0, -s.round);
+          SOLID_RETURN_IF_ERROR(options.algorithm == kGaussNewton
+                                    ? s.GaussNewton(budget, step_scale)
+                                    : s.Minimize(local, options.algorithm, budget, step_scale));
         }
       }
       SOLID_ASSIGN_OR_RETURN(confirmation, Evaluate(r.best, library, s.Eval(kConfirmFirst, options.confirm_layouts)));

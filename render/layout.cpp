@@ -94,8 +94,8 @@ namespace {
 // Everything one layout draw needs while placing objects.
 class Placer {
  public:
-  Placer(const LayoutParams& p, const RoomShell& room, const Camera& camera, Rng& rng)
-      : p_(p), room_(room), camera_(camera), eye_(CameraPosition(camera)), rng_(rng) {
+  Placer(const LayoutParams& p, const RoomShell& room, const Camera& camera)
+      : p_(p), room_(room), camera_(camera), eye_(CameraPosition(camera)) {
     const int n = room.points();
     k_max_ = 0;
     for (int j = 0; j < n; ++j) {
@@ -106,9 +106,10 @@ class Placer {
     k_max_ = std::min(k_max_, n - 1);
   }
 
-  // One pose try: a centre for a box of `half` extents and `rotation`, or false.
+  // One pose try: a centre for a box of `half` extents and `rotation`, or false. The
+  // proposals draw from `rng` alone.
   bool TryPlace(const Mat3& rotation, Vec3 half, double size_m, bool cluster, bool occlude, bool depth_by_size,
-                const std::vector<PlacedObject>& placed, Vec3* centre, int64_t* proposals) {
+                const std::vector<PlacedObject>& placed, Rng& rng, Vec3* centre, int64_t* proposals) {
     const int n = room_.points();
     // Cluster balls and the lattice cubes (squares for floor support) around them.
     struct Ball {
@@ -150,22 +151,22 @@ class Placer {
       if (cluster) {
         // Uniform over the union of the cubes: pick a cube by its size, a point in it,
         // and keep the point with probability 1 / (cubes containing it).
-        uint64_t pick = rng_.Index(total);
+        uint64_t pick = rng.Index(total);
         size_t b = 0;
         while (pick >= balls[b].count) pick -= balls[b++].count;
         const Ball& ball = balls[b];
-        i = ball.i0 + static_cast<int>(rng_.Index(ball.i1 - ball.i0 + 1));
-        j = ball.j0 + static_cast<int>(rng_.Index(ball.j1 - ball.j0 + 1));
-        k = ball.k0 + static_cast<int>(rng_.Index(ball.k1 - ball.k0 + 1));
+        i = ball.i0 + static_cast<int>(rng.Index(ball.i1 - ball.i0 + 1));
+        j = ball.j0 + static_cast<int>(rng.Index(ball.j1 - ball.j0 + 1));
+        k = ball.k0 + static_cast<int>(rng.Index(ball.k1 - ball.k0 + 1));
         int containing = 0;
         for (const Ball& o : balls) {
           containing += i >= o.i0 && i <= o.i1 && j >= o.j0 && j <= o.j1 && k >= o.k0 && k <= o.k1;
         }
-        if (containing > 1 && !rng_.Chance(1.0 / containing)) continue;
+        if (containing > 1 && !rng.Chance(1.0 / containing)) continue;
       } else {
-        i = static_cast<int>(rng_.Index(n));
-        j = static_cast<int>(rng_.Index(n));
-        k = floor ? 0 : static_cast<int>(rng_.Index(k_max_ + 1));
+        i = static_cast<int>(rng.Index(n));
+        j = static_cast<int>(rng.Index(n));
+        k = floor ? 0 : static_cast<int>(rng.Index(k_max_ + 1));
       }
       if (!room_.Covered(i, j)) continue;
       Vec3 c{room_.X(i), room_.Y(j), floor ? room_.FloorZ(i, j) + zhalf + kFloorGap : room_.Z(k)};
@@ -258,7 +259,6 @@ class Placer {
   const RoomShell& room_;
   const Camera& camera_;
   Vec3 eye_;
-  Rng& rng_;
   int k_max_ = 0;
 };
 
@@ -364,31 +364,41 @@ Result<Layout> LayoutSampler::Sample(uint64_t dataset_seed, int64_t index, int r
     return layout;
   }
 
-  Rng rng(draw_seed, kObjectStream);
+  // Each attempt draws its model and poses from its own stream, with a fixed number of
+  // draws per pose try, and each try's proposals from another: a knob that changes how
+  // many proposals a try takes, or whether it succeeds, leaves every other draw where it
+  // was. Nearby parameters then give nearby layouts, which the optimizer's common random
+  // numbers rely on.
+  Rng count_rng(draw_seed, kObjectStream);
   const auto& models = library_->models();
   const int attempts =
-      static_cast<int>(std::floor(rng.Uniform(params_.attempts.lo, params_.attempts.hi + 1)));
+      static_cast<int>(std::floor(count_rng.Uniform(params_.attempts.lo, params_.attempts.hi + 1)));
   layout.stats.attempts = attempts;
-  Placer placer(params_, *layout.room, layout.camera, rng);
+  Placer placer(params_, *layout.room, layout.camera);
   size_t previous = SIZE_MAX;
   for (int a = 0; a < attempts; ++a) {
-    const size_t model = previous != SIZE_MAX && rng.Chance(params_.reuse_prob) ? previous : rng.Index(models.size());
+    const uint64_t attempt_seed = MixSeed(draw_seed, static_cast<uint64_t>(a));
+    Rng pose_rng(attempt_seed, kObjectStream);
+    const bool reuse = pose_rng.Chance(params_.reuse_prob);
+    const size_t drawn = pose_rng.Index(models.size());
+    const size_t model = previous != SIZE_MAX && reuse ? previous : drawn;
     previous = model;
     SOLID_ASSIGN_OR_RETURN(std::shared_ptr<const LoadedAsset> asset, library_->Model(model));
     const double extent = asset->largest_extent();
     if (!(extent > 0)) return InvalidArgumentError("model " + asset->key() + " has no extent");
     for (int t = 0; t < params_.max_pose_tries; ++t) {
       ++layout.stats.pose_tries;
-      const Mat3 rotation = SampleRotation(params_, rng);
-      const double size = SampleSize(params_.scale, rng);
+      const Mat3 rotation = SampleRotation(params_, pose_rng);
+      const double size = SampleSize(params_.scale, pose_rng);
       const double scale = size / extent;
       const bool placed_any = !layout.objects.empty();
-      const bool cluster = placed_any && rng.Chance(params_.cluster_prob);
-      const bool occlude = placed_any && rng.Chance(params_.occlude_prob);
-      const bool depth = occlude && rng.Chance(params_.depth_by_size_prob);
+      const bool cluster = pose_rng.Chance(params_.cluster_prob) && placed_any;
+      const bool occlude = pose_rng.Chance(params_.occlude_prob) && placed_any;
+      const bool depth = pose_rng.Chance(params_.depth_by_size_prob) && occlude;
       const Vec3 half = asset->half_extents() * scale;
+      Rng proposal_rng(MixSeed(attempt_seed, static_cast<uint64_t>(t)), kPlacementStream);
       Vec3 centre;
-      if (placer.TryPlace(rotation, half, size, cluster, occlude, depth, layout.objects, &centre,
+      if (placer.TryPlace(rotation, half, size, cluster, occlude, depth, layout.objects, proposal_rng, &centre,
                           &layout.stats.proposals)) {
         PlacedObject o;
         o.model_index = model;

@@ -15,6 +15,7 @@ enum Stream : uint64_t {
   kLightStream = 4,    // shade.h: SampleLights
   kShadingStream = 5,  // per-pixel jitter and light/ambient samples, seeded per pixel
   kQueryStream = 6,    // query_views.h: the model's rotation
+  kPlacementStream = 7,  // the centre proposals of one pose try, seeded per attempt and try
 };
 
 }  // namespace solid::render

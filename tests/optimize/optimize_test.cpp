@@ -98,7 +98,9 @@ TEST(Optimize, TargetOfTheStartIsMetWithoutSearch) {
   EXPECT_EQ(r->best, o.start);
 }
 
-TEST(Optimize, RecoversAReachablePointFromRandomPlacement) {
+class OptimizeWith : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(OptimizeWith, RecoversAReachablePointFromRandomPlacement) {
   // Reduced fit: from random-placement, reach the metrics of a point of the space (more
   // attempts, occlusion on, larger objects), measured on fresh seeds, within tolerances
   // 4x the acceptance of solid-method 4.3 (count +-1.0, occlusion +-6 points, shares +-8
@@ -106,6 +108,7 @@ TEST(Optimize, RecoversAReachablePointFromRandomPlacement) {
   // size, are bench/optimize_table1's.
   const render::LayoutParams start = Preset("random-placement");
   OptimizeOptions o = Reduced(start);
+  o.algorithm = GetParam();
   const std::string text = R"({"free": {
     "objects.attempts": {"transform": "range", "low": [4, 24], "width": [0, 4]},
     "placement.occlude_prob": {"bounds": [0, 1]}}})";
@@ -134,6 +137,12 @@ TEST(Optimize, RecoversAReachablePointFromRandomPlacement) {
   ASSERT_OK(back.status());
   EXPECT_EQ(*back, r->best);
 }
+
+// Ours, the default, and one of NLopt's.
+INSTANTIATE_TEST_SUITE_P(Algorithms, OptimizeWith, ::testing::Values("gauss-newton", "sbplx"),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           return info.param == "gauss-newton" ? std::string("GaussNewton") : info.param;
+                         });
 
 TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
   OptimizeOptions o = Reduced(Preset("more-objects"));
@@ -190,7 +199,7 @@ TEST(Optimize, UnknownAlgorithmIsAnError) {
   o.algorithm = "simplex";
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_FALSE(r.ok());
-  EXPECT_THAT(r.status().message(), HasSubstr("choose one of sbplx"));
+  EXPECT_THAT(r.status().message(), HasSubstr("choose one of gauss-newton, sbplx"));
   EXPECT_FALSE(TableRowTargets("no-such-row").ok());
 }
 
