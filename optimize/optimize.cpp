@@ -254,12 +254,12 @@ struct Search {
 
   // Trust-region Gauss-Newton on the residual vector, from the best point. The objective is
   // a sum of squares of a few residuals that respond smoothly, on the whole, to the knobs,
-  // but the common seeds leave steps as small as the layouts are discrete: generic
-  // derivative-free methods (a simplex, or a quadratic model of the sum) spend most of
-  // their evaluations on that noise. Here one forward difference per dimension, with a
-  // step well above the noise, gives the Jacobian; each step solves the linear model
-  // inside the trust region and the unit cube; Broyden updates keep the Jacobian current
-  // between recomputations.
+  // but the common seeds leave steps as small as the layouts are discrete: Sbplx on the sum
+  // spent most of its evaluations on that noise (README, "solid optimize"). Here one
+  // forward difference per dimension, with a step well above the noise, gives the
+  // Jacobian (trace phase "jacobian"); each step solves the linear model inside the trust
+  // region and the unit cube; Broyden updates keep the Jacobian current between
+  // recomputations.
   Status GaussNewton(int max_evaluations, double step_scale) {
     constexpr double kMinDifference = 0.05, kMaxDifference = 0.15;  // unit-cube forward-difference steps
     constexpr double kMinRadius = 1e-3;
@@ -277,6 +277,7 @@ struct Search {
     std::string converged;
     while (!stop()) {
       if (!jacobian_current) {
+        phase = "jacobian";
         const double h = std::clamp(radius, kMinDifference, kMaxDifference);
         for (size_t j = 0; j < n && !stop(); ++j) {
           std::vector<double> probe = x;
@@ -286,6 +287,7 @@ struct Search {
           const std::vector<double> rj = Residuals(report.trace.back().metrics, options.targets);
           for (size_t i = 0; i < m; ++i) jacobian[i * n + j] = (rj[i] - r[i]) / signed_h;
         }
+        phase = "local";
         if (stop()) break;
         jacobian_current = jacobian_fresh = true;
       }

@@ -89,7 +89,7 @@ void DefaultEvaluationResolution(const render::LayoutParams& params, int* width,
 struct TraceRow {
   int evaluation = 0;  // from 1
   int round = 0;
-  std::string phase;   // "start", "global", "local", "probe"
+  std::string phase;   // "start", "global", "jacobian" (gauss-newton's differences), "local", "probe"
   std::vector<double> x;
   ProxyMetrics metrics;
   double objective = 0;
