@@ -101,6 +101,24 @@ TEST(ImageCodec, ImageFuzzTimeout441e85deHugeExrAttribute) {
   }
 }
 
+// image_fuzz slow-unit-87c0c1ca: a 252-byte EXR whose data window claims 20000631x3 pixels;
+// OpenEXR spent 15 s opening it, before the limits (checked on the opened header) could
+// refuse it. Refused from the header walk, as a depth map and as any image format.
+TEST(ImageCodec, ImageFuzzSlowUnit87c0c1caHugeExrDataWindow) {
+  const std::vector<uint8_t> bytes = Regression("image-slow-87c0c1ca.exr");
+  ASSERT_EQ(bytes.size(), 252u);
+  Result<DepthImage> depth = DecodeDepthExr(bytes);
+  ASSERT_FALSE(depth.ok());
+  EXPECT_EQ(depth.status().code(), StatusCode::kLimitExceeded);
+  EXPECT_NE(depth.status().message().find("header at byte 114 claims a 20000631x3 data window"), std::string::npos)
+      << depth.status().message();
+  for (ImageFormat f : {ImageFormat::kPng, ImageFormat::kJpeg, ImageFormat::kWebp}) {
+    Result<Image8> image = DecodeImage(bytes, f);
+    ASSERT_FALSE(image.ok());
+    EXPECT_EQ(image.status().code(), StatusCode::kLimitExceeded) << image.status().message();
+  }
+}
+
 // image_fuzz timeout-16617999: a 357-byte EXR whose attributes fit the file but whose parse
 // by content sent OpenEXR past the header, into allocations that took over 10 s under ASan.
 TEST(ImageCodec, ImageFuzzTimeout16617999ExrParsedPastItsHeader) {
