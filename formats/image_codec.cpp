@@ -216,6 +216,7 @@ Result<std::vector<uint8_t>> EncodeImage(const Image8& image, ImageFormat format
 }
 
 Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+  SOLID_RETURN_IF_ERROR(CheckExrHeader(bytes, limits));
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   SOLID_ASSIGN_OR_RETURN(auto reader, OpenChecked(FileNameFor(format), &proxy, limits));
   const OIIO::ImageSpec& spec = reader->spec();

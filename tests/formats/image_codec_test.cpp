@@ -116,6 +116,9 @@ TEST(ImageCodec, ImageFuzzSlowUnit87c0c1caHugeExrDataWindow) {
     Result<Image8> image = DecodeImage(bytes, f);
     ASSERT_FALSE(image.ok());
     EXPECT_EQ(image.status().code(), StatusCode::kLimitExceeded) << image.status().message();
+    Result<ImageHeader> header = ReadImageHeader(bytes, f, kTextureLimits);
+    ASSERT_FALSE(header.ok());
+    EXPECT_EQ(header.status().code(), StatusCode::kLimitExceeded) << header.status().message();
   }
 }
 
