@@ -3,8 +3,10 @@
 # persistent corpus under WORK/corpora/<target> merged with its seeds (the checked-in
 # tests/fuzz/corpus/<target> and the generated ones `fuzz_seeds` writes to WORK/seeds), and
 # prints per target: executions, exec/s, coverage (cov, ft), corpus size, CPU seconds and the
-# crash, leak, timeout and out-of-memory artifacts found (in WORK/artifacts/<target>/).
-# Exit status 1 when any target found something (or did not run), 0 otherwise.
+# crash, leak, timeout and out-of-memory artifacts found (in WORK/artifacts/<target>/), then
+# the slow units (inputs over libFuzzer's 10 s report threshold, below the -t hang limit).
+# Exit status 1 when any target crashed, leaked, hung, blew up or did not run, 0 otherwise:
+# a slow unit is listed for a person to judge, since wall time on a loaded machine varies.
 #
 #   scripts/fuzz-campaign.sh [-b BUILD] [-w WORK] [-m MINUTES | -s SECONDS] [-j JOBS]
 #                            [-t TIMEOUT_S] [-r RSS_MB] [TARGET...]
@@ -111,4 +113,8 @@ for t in "${targets[@]}"; do
   printf '%-13s %12s %8s %7s %7s %7s %9s  %s\n' "$t" "${execs:-?}" "${rate:-?}" "${cov:-?}" "${ft:-?}" "$corpus" \
     "$cpu" "${findings:-none}"
 done
+slow=$(for t in "${targets[@]}"; do
+  find "$work/artifacts/$t" -type f -name 'slow-unit-*' -newer "$work/seeds"
+done | sort)
+[ -z "$slow" ] || printf 'slow units (over 10 s, not failures):\n%s\n' "$slow"
 exit $status
