@@ -1,5 +1,6 @@
 #include <fmt/format.h>
 
+#include <cmath>
 #include <iostream>
 
 #include "commands.h"
@@ -81,6 +82,11 @@ void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
                Percent(m, t.target.tolerance),
                fmt::format("{} +- {}", Percent(m, t.predicted.mean), Percent(m, t.predicted.ci95)),
                t.met ? "ok" : "MISSED", pilot);
+    if (t.search_offset != 0) {
+      fmt::print("      searched for {} on the common layouts: at the last round's start, fresh ones measured {} {}\n",
+                 Percent(m, t.target.value - t.search_offset), Percent(m, std::abs(t.search_offset)),
+                 t.search_offset > 0 ? "more" : "less");
+    }
     for (const std::string& b : t.blocked_by) fmt::print("      blocked by {}\n", b);
     if (!t.met && t.blocked_by.empty()) {
       fmt::print("      no free dimension at a bound holds it back: the search stopped ({}) first\n", r.stop_reason);

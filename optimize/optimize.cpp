@@ -157,6 +157,9 @@ struct Search {
   std::string phase;
   nlopt_opt running = nullptr;
   bool met = false;  // the best point is within search_margin on the common seeds
+  // What the search aims at on the common seeds: the targets, shifted from the second
+  // round on (see RetargetFromConfirmation).
+  std::vector<Target> search_targets;
   double best_objective = std::numeric_limits<double>::infinity();
   std::vector<double> best_unit;
 
@@ -180,7 +183,14 @@ struct Search {
 
   // One evaluation on the common seeds; `exact` evaluates those params as given (the start
   // point), otherwise they are decoded from `unit`.
-  Result<double> Run(const std::vector<double>& unit, const LayoutParams* exact) {
+  //
+  // `confirmed`, at a round's start, is the previous round's confirmation of these params
+  // on fresh seeds. Its difference from the common seeds is mostly their own sampling
+  // error, which common random numbers carry over to nearby points (and which the search,
+  // keeping the best of many, selects for); so from here on the search aims at the targets
+  // shifted by that difference.
+  Result<double> Run(const std::vector<double>& unit, const LayoutParams* exact,
+                     const ProxyMetrics* confirmed = nullptr) {
     LayoutParams params;
     if (exact) {
       params = *exact;
@@ -193,7 +203,14 @@ struct Search {
     }
     Result<Evaluation> e = Evaluate(params, library, Eval(0, layouts));
     if (!e.ok()) return e.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
-    const double objective = Objective(e->metrics, options.targets);
+    if (confirmed) {
+      for (size_t i = 0; i < search_targets.size(); ++i) {
+        const Metric metric = options.targets[i].metric;
+        search_targets[i].value =
+            options.targets[i].value - (MetricOf(*confirmed, metric).mean - MetricOf(e->metrics, metric).mean);
+      }
+    }
+    const double objective = Objective(e->metrics, search_targets);
     TraceRow row{++report.evaluations, round, phase, ToUnits(unit.data()), e->metrics, objective,
                  SecondsSince(start), layouts};
     if (options.on_evaluation) options.on_evaluation(row);
@@ -203,7 +220,7 @@ struct Search {
       best_unit = unit;
       report.best = params;
       report.search_metrics = e->metrics;
-      met = Within(e->metrics, options.targets, options.search_margin);
+      met = Within(e->metrics, search_targets, options.search_margin);
     }
     return objective;
   }
@@ -267,7 +284,7 @@ struct Search {
     const int last = report.evaluations + max_evaluations;
     auto stop = [&] { return met || OutOfBudget() || report.evaluations >= last; };
     std::vector<double> x = best_unit;
-    std::vector<double> r = Residuals(report.search_metrics, options.targets);
+    std::vector<double> r = Residuals(report.search_metrics, search_targets);
     const size_t m = r.size();
     double radius = 0.3 * step_scale;
     std::vector<double> jacobian(m * n);
@@ -284,7 +301,7 @@ struct Search {
           const double signed_h = x[j] + h <= 1 ? h : -h;
           probe[j] += signed_h;
           SOLID_RETURN_IF_ERROR(Run(probe, nullptr).status());
-          const std::vector<double> rj = Residuals(report.trace.back().metrics, options.targets);
+          const std::vector<double> rj = Residuals(report.trace.back().metrics, search_targets);
           for (size_t i = 0; i < m; ++i) jacobian[i * n + j] = (rj[i] - r[i]) / signed_h;
         }
         phase = "local";
@@ -315,7 +332,7 @@ struct Search {
       std::vector<double> next = x;
       for (size_t j = 0; j < n; ++j) next[j] = std::clamp(x[j] + d[j], 0.0, 1.0);
       SOLID_RETURN_IF_ERROR(Run(next, nullptr).status());
-      const std::vector<double> r_next = Residuals(report.trace.back().metrics, options.targets);
+      const std::vector<double> r_next = Residuals(report.trace.back().metrics, search_targets);
       const double actual = SquaredNorm(r) - SquaredNorm(r_next);
       // Broyden's rank-one update: the Jacobian now maps d to the change it caused.
       const std::vector<double> linear = model.Predict(d.data());
@@ -484,6 +501,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
   SOLID_RETURN_IF_ERROR(render::CheckParams(options.start, "optimizer: start"));
   Search s{library, options};
   s.start = Clock::now();
+  s.search_targets = options.targets;
   SOLID_ASSIGN_OR_RETURN(s.dims, options.space.Dimensions(options.start));
   if (s.dims.empty()) return InvalidArgumentError("optimizer: no free knob");
   if (local == NLOPT_LN_BOBYQA && s.dims.size() < 2) {
@@ -510,7 +528,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start).status());
       } else {
         const LayoutParams previous = r.best;
-        SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous).status());
+        SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous, &confirmation.metrics).status());
       }
       if (s.met) {
         r.stop_reason = "every target within the search margin on the common seeds";
@@ -561,6 +579,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     tr.target = t;
     tr.predicted = MetricOf(r.confirmation, t.metric);
     tr.met = std::abs(tr.predicted.mean - t.value) <= t.tolerance;
+    tr.search_offset = t.value - s.search_targets[r.results.size()].value;
     r.all_met = r.all_met && tr.met;
     r.results.push_back(std::move(tr));
   }
@@ -590,6 +609,7 @@ nlohmann::json OptimizeReport::ToJson() const {
                         {"tolerance", t.target.tolerance},
                         {"achieved", est(t.predicted)},
                         {"met", t.met},
+                        {"search_offset", t.search_offset},
                         {"blocked_by", t.blocked_by}};
     if (t.pilot) {
       j["pilot"] = est(*t.pilot);

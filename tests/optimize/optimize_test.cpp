@@ -9,6 +9,7 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "fixtures/background_process.h"
 #include "fixtures/layered_dataset.h"
@@ -160,6 +161,44 @@ TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
   ASSERT_EQ(r->results.size(), 1u);
   EXPECT_FALSE(r->results[0].met);
   EXPECT_THAT(r->results[0].blocked_by, ::testing::Contains(HasSubstr("objects.attempts.low at its upper bound 4")));
+}
+
+// The second round aims, on its common seeds, at the targets shifted by how far the first
+// round's confirmation (fresh seeds) was from them at the same point: its first evaluation
+// then scores exactly as that confirmation does against the real targets.
+TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
+  OptimizeOptions o = Reduced(Preset("more-objects"));
+  // The bounds hold the start (U{20..25}), so every point decodes back to what was run.
+  const std::string text = R"({"free": {"objects.attempts": {"transform": "range", "low": [1, 22], "width": [0, 5]}}})";
+  Result<nlohmann::json> doc = json::ParseJson(text, "space.json");
+  ASSERT_OK(doc.status());
+  Result<SearchSpace> space = SearchSpace::Parse(*doc, text, "space.json");
+  ASSERT_OK(space.status());
+  o.space = *space;
+  o.targets = {{Metric::kObjectsPerImage, 40, 0.25}};  // out of reach: round one ends unconfirmed
+  o.max_rounds = 2;
+  o.seed = 2;
+  o.layouts = 20;
+  o.confirm_layouts = 80;
+  o.max_evaluations = 12;
+  Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+  ASSERT_OK(r.status());
+  ASSERT_EQ(r->rounds, 2) << r->stop_reason;
+  const auto second = std::find_if(r->trace.begin(), r->trace.end(), [](const TraceRow& t) { return t.round == 1; });
+  ASSERT_NE(second, r->trace.end());
+  EXPECT_EQ(second->phase, "start");
+  // The point the second round starts from, confirmed as Optimize does after round one.
+  Result<render::LayoutParams> point = o.space.Decode(o.start, second->x);
+  ASSERT_OK(point.status());
+  const EvaluationOptions confirm{o.seed, kConfirmFirst, o.confirm_layouts, r->eval_width, r->eval_height, 2};
+  Result<Evaluation> confirmed = Evaluate(*point, render::testing::ProceduralLibrary(), confirm);
+  ASSERT_OK(confirmed.status());
+  const double fresh = confirmed->metrics.objects_per_image.mean, common = second->metrics.objects_per_image.mean;
+  ASSERT_GT(std::abs(fresh - common), 0.01);  // 40 common layouts against 80 fresh ones: a real shift
+  ASSERT_EQ(r->results.size(), 1u);
+  EXPECT_NEAR(r->results[0].search_offset, fresh - common, 1e-9);
+  const double residual = (fresh - 40) / 0.25;
+  EXPECT_NEAR(second->objective, residual * residual, 1e-9 * residual * residual);
 }
 
 // Cancelled after the 3rd evaluation: the report holds the best of those three,

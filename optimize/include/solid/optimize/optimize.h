@@ -139,6 +139,9 @@ struct TargetResult {
   Target target;
   Estimate predicted;  // on the fresh seeds at the evaluation resolution
   bool met = false;    // |predicted - target| <= tolerance
+  // The last round searched for target - search_offset on the common seeds: from the
+  // second round on, the confirmation's difference from them at the round's start.
+  double search_offset = 0;
   std::optional<Estimate> pilot;  // at the output resolution
   bool pilot_agrees = false;      // |pilot - predicted| <= tolerance + the difference's 95% CI
   // Why an unmet target could not be met: free dimensions at a bound in the direction
