@@ -158,7 +158,7 @@ struct Search {
   nlopt_opt running = nullptr;
   bool met = false;  // the best point is within search_margin on the common seeds
   // What the search aims at on the common seeds: the targets, shifted from the second
-  // round on (see RetargetFromConfirmation).
+  // round on (see Run's `confirmed`).
   std::vector<Target> search_targets;
   double best_objective = std::numeric_limits<double>::infinity();
   std::vector<double> best_unit;
@@ -565,6 +565,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
       tr.target = t;
       tr.predicted = MetricOf(r.search_metrics, t.metric);
       tr.met = std::abs(tr.predicted.mean - t.value) <= t.tolerance;
+      tr.search_offset = t.value - s.search_targets[r.results.size()].value;
       r.results.push_back(std::move(tr));
     }
     r.seconds = SecondsSince(s.start);
