@@ -71,6 +71,11 @@ TEST(Evaluate, ClassesScaleAgainstTheOutputResolution) {
   EXPECT_NEAR(low->metrics.large.mean, high->metrics.large.mean, 0.05);
 }
 
+Result<SearchSpace> ParseSpace(const std::string& text) {
+  SOLID_ASSIGN_OR_RETURN(const nlohmann::json doc, json::ParseJson(text, "space.json"));
+  return SearchSpace::Parse(doc, text, "space.json");
+}
+
 OptimizeOptions Reduced(const render::LayoutParams& start) {
   OptimizeOptions o;
   o.start = start;
@@ -113,9 +118,7 @@ TEST_P(OptimizeWith, RecoversAReachablePointFromRandomPlacement) {
   const std::string text = R"({"free": {
     "objects.attempts": {"transform": "range", "low": [4, 24], "width": [0, 4]},
     "placement.occlude_prob": {"bounds": [0, 1]}}})";
-  Result<nlohmann::json> doc = json::ParseJson(text, "space.json");
-  ASSERT_OK(doc.status());
-  Result<SearchSpace> space = SearchSpace::Parse(*doc, text, "space.json");
+  Result<SearchSpace> space = ParseSpace(text);
   ASSERT_OK(space.status());
   o.space = *space;
   render::LayoutParams goal = start;
@@ -148,9 +151,7 @@ INSTANTIATE_TEST_SUITE_P(Algorithms, OptimizeWith, ::testing::Values("gauss-newt
 TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
   OptimizeOptions o = Reduced(Preset("more-objects"));
   const std::string text = R"({"free": {"objects.attempts": {"transform": "range", "low": [1, 4], "width": [0, 1]}}})";
-  Result<nlohmann::json> doc = json::ParseJson(text, "space.json");
-  ASSERT_OK(doc.status());
-  Result<SearchSpace> space = SearchSpace::Parse(*doc, text, "space.json");
+  Result<SearchSpace> space = ParseSpace(text);
   ASSERT_OK(space.status());
   o.space = *space;
   o.targets = {{Metric::kObjectsPerImage, 40, 0.25}};
@@ -170,9 +171,7 @@ TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
   OptimizeOptions o = Reduced(Preset("more-objects"));
   // The bounds hold the start (U{20..25}), so every point decodes back to what was run.
   const std::string text = R"({"free": {"objects.attempts": {"transform": "range", "low": [1, 22], "width": [0, 5]}}})";
-  Result<nlohmann::json> doc = json::ParseJson(text, "space.json");
-  ASSERT_OK(doc.status());
-  Result<SearchSpace> space = SearchSpace::Parse(*doc, text, "space.json");
+  Result<SearchSpace> space = ParseSpace(text);
   ASSERT_OK(space.status());
   o.space = *space;
   o.targets = {{Metric::kObjectsPerImage, 40, 0.25}};  // out of reach: round one ends unconfirmed
