@@ -148,13 +148,19 @@ INSTANTIATE_TEST_SUITE_P(Algorithms, OptimizeWith, ::testing::Values("gauss-newt
                            return info.param == "gauss-newton" ? std::string("GaussNewton") : info.param;
                          });
 
-TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
+// From more-objects, with only objects.attempts free (`attempts_knob`, its search-space
+// entry), aiming at 40 visible objects: out of reach.
+Result<OptimizeOptions> CountOutOfReach(const std::string& attempts_knob) {
   OptimizeOptions o = Reduced(Preset("more-objects"));
-  const std::string text = R"({"free": {"objects.attempts": {"transform": "range", "low": [1, 4], "width": [0, 1]}}})";
-  Result<SearchSpace> space = ParseSpace(text);
-  ASSERT_OK(space.status());
-  o.space = *space;
+  SOLID_ASSIGN_OR_RETURN(o.space, ParseSpace(R"({"free": {"objects.attempts": )" + attempts_knob + "}}"));
   o.targets = {{Metric::kObjectsPerImage, 40, 0.25}};
+  return o;
+}
+
+TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
+  Result<OptimizeOptions> options = CountOutOfReach(R"({"transform": "range", "low": [1, 4], "width": [0, 1]})");
+  ASSERT_OK(options.status());
+  OptimizeOptions& o = *options;
   o.max_evaluations = 30;
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
@@ -168,13 +174,10 @@ TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
 // round's confirmation (fresh seeds) was from them at the same point: its first evaluation
 // then scores exactly as that confirmation does against the real targets.
 TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
-  OptimizeOptions o = Reduced(Preset("more-objects"));
   // The bounds hold the start (U{20..25}), so every point decodes back to what was run.
-  const std::string text = R"({"free": {"objects.attempts": {"transform": "range", "low": [1, 22], "width": [0, 5]}}})";
-  Result<SearchSpace> space = ParseSpace(text);
-  ASSERT_OK(space.status());
-  o.space = *space;
-  o.targets = {{Metric::kObjectsPerImage, 40, 0.25}};  // out of reach: round one ends unconfirmed
+  Result<OptimizeOptions> options = CountOutOfReach(R"({"transform": "range", "low": [1, 22], "width": [0, 5]})");
+  ASSERT_OK(options.status());
+  OptimizeOptions& o = *options;  // round one ends unconfirmed
   o.max_rounds = 2;
   o.seed = 2;
   o.layouts = 20;
