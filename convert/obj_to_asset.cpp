@@ -523,8 +523,7 @@ class Builder {
     const ImageFormat format = *mime_type == "image/png" ? ImageFormat::kPng : ImageFormat::kJpeg;
     Result<ImageHeader> header = ReadImageHeader(*bytes, format, {UINT32_MAX, UINT64_MAX});
     if (!header.ok()) return RejectTexture(where, "unsupported_texture", header.status().message());
-    if (header->width > kTextureLimits.max_side || header->height > kTextureLimits.max_side ||
-        uint64_t{header->width} * header->height > kTextureLimits.max_pixels) {
+    if (!kTextureLimits.Admit(header->width, header->height)) {
       return RejectTexture(where, "texture_too_large",
                            fmt::format("{}x{} pixels, over the limits of {} per side and {} pixels", header->width,
                                        header->height, kTextureLimits.max_side, kTextureLimits.max_pixels));

@@ -157,8 +157,7 @@ Status CheckExrHeader(std::span<const uint8_t> bytes, const ImageLimits& limits)
         if (width <= 0 || height <= 0) {
           return corrupt(start, fmt::format("an empty data window ({}, {}) - ({}, {})", box[0], box[1], box[2], box[3]));
         }
-        if (static_cast<uint64_t>(width) > limits.max_side || static_cast<uint64_t>(height) > limits.max_side ||
-            static_cast<uint64_t>(width) * static_cast<uint64_t>(height) > limits.max_pixels) {
+        if (!limits.Admit(static_cast<uint64_t>(width), static_cast<uint64_t>(height))) {
           return LimitExceededError(fmt::format("decoding EXR: header at byte {} claims a {}x{} data window, over the "
                                                 "limits ({} per side, {} pixels)",
                                                 start, width, height, limits.max_side, limits.max_pixels));
@@ -180,9 +179,7 @@ Result<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string& name, O
     return Error(fmt::format("decoding {}", name), fmt::format("unsupported geometry {}x{}x{} channels, depth {}",
                                                                spec.width, spec.height, spec.nchannels, spec.depth));
   }
-  uint64_t pixels = static_cast<uint64_t>(spec.width) * static_cast<uint64_t>(spec.height);
-  if (static_cast<uint64_t>(spec.width) > limits.max_side || static_cast<uint64_t>(spec.height) > limits.max_side ||
-      pixels > limits.max_pixels || spec.nchannels > 4) {
+  if (!limits.Admit(static_cast<uint64_t>(spec.width), static_cast<uint64_t>(spec.height)) || spec.nchannels > 4) {
     return LimitExceededError(fmt::format("{}: header claims {}x{} with {} channels, over the limits ({} per side, "
                                           "{} pixels, 4 channels)",
                                           name, spec.width, spec.height, spec.nchannels, limits.max_side,
@@ -267,19 +264,18 @@ Result<DepthImage> DecodeDepthExr(std::span<const uint8_t> bytes, const ImageLim
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   SOLID_ASSIGN_OR_RETURN(auto reader, OpenFromMemory("memory.exr", &proxy));
   const OIIO::ImageSpec& spec = reader->spec();
-  uint64_t pixels = static_cast<uint64_t>(std::max(spec.width, 0)) * static_cast<uint64_t>(std::max(spec.height, 0));
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels != 1 || spec.depth != 1) {
     return Error("decoding depth EXR", fmt::format("expected one channel, found {}x{}x{}", spec.width, spec.height,
                                                    spec.nchannels));
   }
-  if (static_cast<uint64_t>(spec.width) > limits.max_side || static_cast<uint64_t>(spec.height) > limits.max_side ||
-      pixels > limits.max_pixels) {
+  const uint64_t width = static_cast<uint64_t>(spec.width), height = static_cast<uint64_t>(spec.height);
+  if (!limits.Admit(width, height)) {
     return LimitExceededError(fmt::format("depth EXR header claims {}x{}, over the limits", spec.width, spec.height));
   }
   DepthImage depth;
   depth.width = static_cast<uint32_t>(spec.width);
   depth.height = static_cast<uint32_t>(spec.height);
-  depth.values.resize(pixels);
+  depth.values.resize(width * height);
   if (!ReadPixels(*reader, OIIO::TypeDesc::FLOAT, depth.values.data())) {
     return Error("decoding depth EXR", reader->geterror());
   }

@@ -25,10 +25,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (image->width == 0 || image->height == 0 || image->channels == 0 || image->channels > 4) {
         Fail("a decoded image has an empty or unsupported geometry");
       }
-      if (image->width > limits.max_side || image->height > limits.max_side ||
-          uint64_t{image->width} * image->height > limits.max_pixels) {
-        Fail("a decoded image exceeds the limits");
-      }
+      if (!limits.Admit(image->width, image->height)) Fail("a decoded image exceeds the limits");
       if (image->pixels.size() != size_t{image->width} * image->height * image->channels) {
         Fail("a decoded image has the wrong number of bytes");
       }
@@ -38,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       solid::Result<solid::DepthImage> depth = solid::DecodeDepthExr(bytes, limits);
       if (!depth.ok()) return 0;
       if (depth->values.size() != size_t{depth->width} * depth->height) Fail("a decoded depth has the wrong size");
-      if (depth->width > limits.max_side || depth->height > limits.max_side) Fail("a decoded depth exceeds the limits");
+      if (!limits.Admit(depth->width, depth->height)) Fail("a decoded depth exceeds the limits");
       break;
     }
   }

@@ -16,6 +16,10 @@ namespace solid {
 struct ImageLimits {
   uint32_t max_side = 16384;
   uint64_t max_pixels = uint64_t{64} << 20;
+  // For sizes of at least 1x1.
+  bool Admit(uint64_t width, uint64_t height) const {
+    return width <= max_side && height <= max_side && width * height <= max_pixels;
+  }
 };
 
 // Textures of 3D models, checked when `solid convert` embeds them and when the renderer
