@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include "solid/formats/dataset.h"
 #include "solid/formats/rle.h"
@@ -162,6 +163,10 @@ struct Search {
   std::vector<Target> search_targets;
   double best_objective = std::numeric_limits<double>::infinity();
   std::vector<double> best_unit;
+  // This round's measurements by point. The common seeds make a point's metrics a function
+  // of the point, so measuring it again would learn nothing: Gauss-Newton steps back to
+  // where it was, or differences again at a point after rejected steps.
+  std::map<std::vector<double>, ProxyMetrics> measured;
 
   std::vector<double> ToUnits(const double* unit) const {
     std::vector<double> v(dims.size());
@@ -189,8 +194,19 @@ struct Search {
   // error, which common random numbers carry over to nearby points (and which the search,
   // keeping the best of many, selects for); so from here on the search aims at the targets
   // shifted by that difference.
-  Result<double> Run(const std::vector<double>& unit, const LayoutParams* exact,
-                     const ProxyMetrics* confirmed = nullptr) {
+  //
+  // A point measured before in this round is not evaluated again (no trace row).
+  struct Measured {
+    double objective = 0;
+    ProxyMetrics metrics;
+  };
+  Result<Measured> Run(const std::vector<double>& unit, const LayoutParams* exact,
+                       const ProxyMetrics* confirmed = nullptr) {
+    if (!exact) {
+      if (const auto it = measured.find(unit); it != measured.end()) {
+        return Measured{Objective(it->second, search_targets), it->second};
+      }
+    }
     LayoutParams params;
     if (exact) {
       params = *exact;
@@ -222,15 +238,16 @@ struct Search {
       report.search_metrics = e->metrics;
       met = Within(e->metrics, search_targets, options.search_margin);
     }
-    return objective;
+    if (!exact) measured.emplace(unit, e->metrics);
+    return Measured{objective, std::move(e->metrics)};
   }
 
   static double Callback(unsigned n, const double* x, double* /*gradient*/, void* data) {
     auto* s = static_cast<Search*>(data);
-    Result<double> f = s->Run(std::vector<double>(x, x + n), nullptr);
+    Result<Measured> f = s->Run(std::vector<double>(x, x + n), nullptr);
     if (!f.ok()) s->error = f.status();
     if (!f.ok() || s->met || s->OutOfBudget()) nlopt_force_stop(s->running);
-    return f.ok() ? *f : std::numeric_limits<double>::max();
+    return f.ok() ? f->objective : std::numeric_limits<double>::max();
   }
 
   // One NLopt run from the best point; its own evaluation cap is `max_evaluations`.
@@ -300,8 +317,8 @@ struct Search {
           std::vector<double> probe = x;
           const double signed_h = x[j] + h <= 1 ? h : -h;
           probe[j] += signed_h;
-          SOLID_RETURN_IF_ERROR(Run(probe, nullptr).status());
-          const std::vector<double> rj = Residuals(report.trace.back().metrics, search_targets);
+          SOLID_ASSIGN_OR_RETURN(const Measured at_probe, Run(probe, nullptr));
+          const std::vector<double> rj = Residuals(at_probe.metrics, search_targets);
           for (size_t i = 0; i < m; ++i) jacobian[i * n + j] = (rj[i] - r[i]) / signed_h;
         }
         phase = "local";
@@ -331,8 +348,8 @@ struct Search {
       }
       std::vector<double> next = x;
       for (size_t j = 0; j < n; ++j) next[j] = std::clamp(x[j] + d[j], 0.0, 1.0);
-      SOLID_RETURN_IF_ERROR(Run(next, nullptr).status());
-      const std::vector<double> r_next = Residuals(report.trace.back().metrics, search_targets);
+      SOLID_ASSIGN_OR_RETURN(const Measured at_next, Run(next, nullptr));
+      const std::vector<double> r_next = Residuals(at_next.metrics, search_targets);
       const double actual = SquaredNorm(r) - SquaredNorm(r_next);
       // Broyden's rank-one update: the Jacobian now maps d to the change it caused.
       const std::vector<double> linear = model.Predict(d.data());
@@ -380,14 +397,14 @@ struct Search {
       probe[i] += at_lo ? kProbeStep : -kProbeStep;
       const double saved_best = best_objective;
       best_objective = -1;  // a probe never replaces the best point
-      Result<double> f = Run(probe, nullptr);
+      Result<Measured> f = Run(probe, nullptr);
       best_objective = saved_best;
       SOLID_RETURN_IF_ERROR(f.status());
       for (TargetResult& t : results) {
         if (t.met) continue;
         const double need = t.target.value - t.predicted.mean;
         const double at_best = MetricOf(report.search_metrics, t.target.metric).mean;
-        const double moved = MetricOf(report.trace.back().metrics, t.target.metric).mean - at_best;
+        const double moved = MetricOf(f->metrics, t.target.metric).mean - at_best;
         if (moved * need >= 0) continue;
         t.blocked_by.push_back(fmt::format("{} at its {} bound {:g} (a step inside moves {} from {:.4g} to {:.4g})",
                                            dims[i].name, at_lo ? "lower" : "upper", at_lo ? dims[i].lo : dims[i].hi,
@@ -523,6 +540,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
       s.layouts = options.layouts << s.round;
       s.phase = "start";
       s.best_objective = std::numeric_limits<double>::infinity();
+      s.measured.clear();  // new common seeds
       // The start itself, exactly: a target it already meets costs no search.
       if (s.round == 0) {
         SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start).status());

@@ -170,6 +170,38 @@ TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
   EXPECT_THAT(r->results[0].blocked_by, ::testing::Contains(HasSubstr("objects.attempts.low at its upper bound 4")));
 }
 
+// Common seeds make an evaluation a function of its point, so measuring a point twice in
+// a round would learn nothing: Gauss-Newton stepping back to where it was, or differencing
+// again at a point after rejected steps, reuses the round's measurements. The targets pull
+// against each other (many objects, no occlusion, half of them large), so steps get
+// rejected and the search steps back.
+TEST(Optimize, GaussNewtonMeasuresNoPointTwiceInARound) {
+  OptimizeOptions o = Reduced(Preset("random-placement"));
+  Result<SearchSpace> space = ParseSpace(R"({"free": {
+    "objects.attempts": {"transform": "range", "low": [4, 24], "width": [0, 4]},
+    "placement.occlude_prob": {"bounds": [0, 1]},
+    "objects.scale.range_m": {"transform": "range", "low": [0.2, 2], "width": [0.1, 2]}}})");
+  ASSERT_OK(space.status());
+  o.space = *space;
+  o.targets = {{Metric::kObjectsPerImage, 14, 0.25}, {Metric::kOcclusion, 0.02, 0.015}, {Metric::kLarge, 0.5, 0.02}};
+  o.layouts = 20;
+  o.max_evaluations = 80;
+  Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+  ASSERT_OK(r.status());
+  EXPECT_FALSE(r->all_met);
+  int steps = 0;
+  for (size_t a = 0; a < r->trace.size(); ++a) {
+    const TraceRow& t = r->trace[a];
+    if (t.phase == "probe") continue;  // FindBlockers' probes, after the search
+    steps += t.phase == "local";
+    for (size_t b = 0; b < a; ++b) {
+      EXPECT_FALSE(r->trace[b].round == t.round && r->trace[b].x == t.x)
+          << "evaluations " << r->trace[b].evaluation << " and " << t.evaluation << " measure the same point";
+    }
+  }
+  EXPECT_GT(steps, 4) << r->stop_reason;
+}
+
 // The second round aims, on its common seeds, at the targets shifted by how far the first
 // round's confirmation (fresh seeds) was from them at the same point: its first evaluation
 // then scores exactly as that confirmation does against the real targets.
