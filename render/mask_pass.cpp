@@ -126,9 +126,10 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
   out.height = h;
   out.ids.assign(pixels, 0);
   out.depth.assign(pixels, kInfinity);
-  std::vector<std::vector<uint8_t>> full(objects, std::vector<uint8_t>(pixels, 0));
+  // Every full mask in one zeroed block: one allocation per layout, not one copy per object.
+  std::vector<uint8_t> full(objects * pixels, 0);
   std::vector<uint8_t*> full_rows(objects);
-  for (size_t k = 0; k < objects; ++k) full_rows[k] = full[k].data();
+  for (size_t k = 0; k < objects; ++k) full_rows[k] = full.data() + k * pixels;
 
   const ObjectScene object_scene(layout.room->device()->handle(), layout);
   RTCScene room = reinterpret_cast<RTCScene>(layout.room->scene());
@@ -198,7 +199,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
     const auto it = std::lower_bound(visible.begin(), visible.end(), static_cast<uint32_t>(k + 1),
                                      [](const rle::IdRle& e, uint32_t id) { return e.id < id; });
     const rle::Rle& vis = it != visible.end() && it->id == k + 1 ? it->rle : empty;
-    const rle::Rle full_rle = rle::EncodeRowMajor(full[k], h, w);
+    const rle::Rle full_rle = rle::EncodeRowMajor({full_rows[k], pixels}, h, w);
     SOLID_RETURN_IF_ERROR(SetInstanceMasks(vis, full_rle, &r).WithContext(
         fmt::format("layout {} object {} ({})", layout.index, k, o.model_key)));
     r.world_from_object = o.WorldFromObject();
