@@ -283,7 +283,7 @@ Command AddOptimize(CLI::App& app) {
   cmd->add_option("--pilot", o.pilot_layouts, "Fresh layouts at the output resolution checked against the prediction")
       ->capture_default_str();
   cmd->add_option("--max-evals", o.max_evaluations, "Evaluation budget")->capture_default_str();
-  cmd->add_option("--max-seconds", o.max_seconds, "Time budget of the search")->capture_default_str();
+  cmd->add_option("--max-seconds", o.max_seconds, "Time budget of the search and its confirmation (the pilot comes on top)")->capture_default_str();
   cmd->add_option("--margin", o.search_margin, "Stop the search within this share of each tolerance")
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (a missed confirmation starts another)")

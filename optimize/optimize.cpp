@@ -167,6 +167,8 @@ struct Search {
   // of the point, so measuring it again would learn nothing: Gauss-Newton steps back to
   // where it was, or differences again at a point after rejected steps.
   std::map<std::vector<double>, ProxyMetrics> measured;
+  double evaluation_seconds = 0;
+  int64_t evaluated_layouts = 0;
 
   std::vector<double> ToUnits(const double* unit) const {
     std::vector<double> v(dims.size());
@@ -178,9 +180,14 @@ struct Search {
     for (size_t i = 0; i < dims.size(); ++i) u[i] = (v[i] - dims[i].lo) / (dims[i].hi - dims[i].lo);
     return u;
   }
-  bool OutOfBudget() const {
-    return report.evaluations >= options.max_evaluations || SecondsSince(start) >= options.max_seconds;
+  // What the search may still spend: the budget less the time that confirming the best
+  // point on the fresh layouts will take at the rate measured so far, so that max_seconds
+  // bounds the search and its confirmation together.
+  double SecondsLeft() const {
+    const double per_layout = evaluated_layouts > 0 ? evaluation_seconds / static_cast<double>(evaluated_layouts) : 0;
+    return options.max_seconds - SecondsSince(start) - per_layout * static_cast<double>(options.confirm_layouts);
   }
+  bool OutOfBudget() const { return report.evaluations >= options.max_evaluations || SecondsLeft() <= 0; }
 
   EvaluationOptions Eval(int64_t first, int64_t n) const {
     return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs, options.cancel};
@@ -217,8 +224,11 @@ struct Search {
       }
       params = *std::move(decoded);
     }
+    const Clock::time_point evaluation_start = Clock::now();
     Result<Evaluation> e = Evaluate(params, library, Eval(0, layouts));
     if (!e.ok()) return e.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
+    evaluation_seconds += SecondsSince(evaluation_start);
+    evaluated_layouts += layouts;
     if (confirmed) {
       for (size_t i = 0; i < search_targets.size(); ++i) {
         const Metric metric = options.targets[i].metric;
@@ -266,7 +276,7 @@ struct Search {
     nlopt_set_initial_step(opt.get(), step.data());
     nlopt_set_xtol_abs1(opt.get(), 1e-4);
     nlopt_set_maxeval(opt.get(), std::max(1, max_evaluations));
-    nlopt_set_maxtime(opt.get(), std::max(1e-3, options.max_seconds - SecondsSince(start)));
+    nlopt_set_maxtime(opt.get(), std::max(1e-3, SecondsLeft()));
     // NLopt's stochastic algorithms draw from its one global generator.
     nlopt_srand(options.seed);
     std::vector<double> x = best_unit;
@@ -280,7 +290,7 @@ struct Search {
     }
     report.stop_reason = met ? "every target within the search margin on the common seeds"
                          : report.evaluations >= options.max_evaluations ? "max evaluations"
-                         : SecondsSince(start) >= options.max_seconds     ? "time budget"
+                         : SecondsLeft() <= 0                             ? "time budget"
                                                                           : fmt::format("{} converged ({})", name,
                                                                                         nlopt_result_to_string(result));
     return Status::Ok();
@@ -295,7 +305,7 @@ struct Search {
   // region and the unit cube; Broyden updates keep the Jacobian current between
   // recomputations.
   Status GaussNewton(int max_evaluations, double step_scale) {
-    constexpr double kMinDifference = 0.05, kMaxDifference = 0.15;  // unit-cube forward-difference steps
+    constexpr double kMinDifference = 0.1, kMaxDifference = 0.15;  // unit-cube forward-difference steps
     constexpr double kMinRadius = 1e-3;
     const size_t n = dims.size();
     const int last = report.evaluations + max_evaluations;
@@ -380,7 +390,7 @@ struct Search {
     }
     report.stop_reason = met ? "every target within the search margin on the common seeds"
                          : report.evaluations >= options.max_evaluations ? "max evaluations"
-                         : SecondsSince(start) >= options.max_seconds     ? "time budget"
+                         : SecondsLeft() <= 0                             ? "time budget"
                          : converged.empty()                              ? "gauss-newton: evaluation budget"
                                                                           : "gauss-newton: " + converged;
     return Status::Ok();

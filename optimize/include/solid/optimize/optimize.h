@@ -103,7 +103,7 @@ struct OptimizeOptions {
   std::vector<Target> targets;
   // Local algorithm. "gauss-newton" (default): a trust-region Gauss-Newton search on the
   // residuals (metric - target) / tolerance, with forward-difference Jacobians (one
-  // evaluation per free dimension, steps of 0.05-0.15 of each dimension's bounds, well
+  // evaluation per free dimension, steps of 0.1-0.15 of each dimension's bounds, well
   // above the noise the common seeds leave), Broyden updates between them, and each step's
   // bounded linear least-squares problem solved by NLopt's SLSQP. Or an NLopt
   // derivative-free method on the objective: "sbplx", "neldermead", "bobyqa", "cobyla",
@@ -119,6 +119,8 @@ struct OptimizeOptions {
   int64_t confirm_layouts = 2000;
   int64_t pilot_layouts = 0;  // 0: no pilot
   int max_evaluations = 300;
+  // Bounds the search and the confirmation together: the search stops early enough to
+  // confirm at the rate its evaluations ran. The pilot comes on top.
   double max_seconds = 300;
   int jobs = 0;
   // The search stops once every target is within this share of its tolerance on the common
