@@ -102,6 +102,9 @@ struct LinearModel {
   const std::vector<double>& jacobian;
   size_t n;
   double damping;
+  // SLSQP sees the model divided by |r|^2 (at least 1): far from the targets the residuals
+  // run to hundreds of tolerances, and unscaled it stopped at d = 0, "roundoff limited".
+  double scale = 1;
 
   std::vector<double> Predict(const double* d) const {
     std::vector<double> out = r;
@@ -117,11 +120,12 @@ struct LinearModel {
       for (unsigned j = 0; j < n; ++j) {
         gradient[j] = 2 * model->damping * d[j];
         for (size_t i = 0; i < predicted.size(); ++i) gradient[j] += 2 * predicted[i] * model->jacobian[i * n + j];
+        gradient[j] *= model->scale;
       }
     }
     double damped = 0;
     for (unsigned j = 0; j < n; ++j) damped += d[j] * d[j];
-    return SquaredNorm(predicted) + model->damping * damped;
+    return model->scale * (SquaredNorm(predicted) + model->damping * damped);
   }
 };
 
@@ -169,6 +173,10 @@ struct Search {
   std::map<std::vector<double>, ProxyMetrics> measured;
   double evaluation_seconds = 0;
   int64_t evaluated_layouts = 0;
+  // Gauss-Newton's Jacobian where the previous round left it. The next round's common seeds
+  // move the residuals by about a constant, not their slopes, so it starts from this one
+  // instead of spending an evaluation per dimension.
+  std::vector<double> previous_jacobian;
 
   std::vector<double> ToUnits(const double* unit) const {
     std::vector<double> v(dims.size());
@@ -303,7 +311,7 @@ struct Search {
   // forward difference per dimension, with a step well above the noise, gives the
   // Jacobian (trace phase "jacobian"); each step solves the linear model inside the trust
   // region and the unit cube; Broyden updates keep the Jacobian current between
-  // recomputations.
+  // recomputations. A later round starts from the previous round's Jacobian.
   Status GaussNewton(int max_evaluations, double step_scale) {
     constexpr double kMinDifference = 0.1, kMaxDifference = 0.15;  // unit-cube forward-difference steps
     constexpr double kMinRadius = 1e-3;
@@ -315,7 +323,8 @@ struct Search {
     const size_t m = r.size();
     double radius = 0.3 * step_scale;
     std::vector<double> jacobian(m * n);
-    bool jacobian_current = false;
+    bool jacobian_current = previous_jacobian.size() == jacobian.size();
+    if (jacobian_current) jacobian = previous_jacobian;
     bool jacobian_fresh = false;  // computed by differences, no Broyden update since
     int rejected = 0;
     std::string converged;
@@ -342,7 +351,8 @@ struct Search {
       }
       double column_norms = 0;
       for (double e : jacobian) column_norms += e * e;
-      const LinearModel model{r, jacobian, n, 1e-4 * column_norms / static_cast<double>(n)};
+      const LinearModel model{r, jacobian, n, 1e-4 * column_norms / static_cast<double>(n),
+                              1 / std::max(1.0, SquaredNorm(r))};
       SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, SolveLinearModel(model, lower, upper));
       const double predicted = SquaredNorm(r) - SquaredNorm(model.Predict(d.data()));
       double step = 0;
@@ -388,6 +398,7 @@ struct Search {
         }
       }
     }
+    if (jacobian_current) previous_jacobian = jacobian;
     report.stop_reason = met ? "every target within the search margin on the common seeds"
                          : report.evaluations >= options.max_evaluations ? "max evaluations"
                          : SecondsLeft() <= 0                             ? "time budget"

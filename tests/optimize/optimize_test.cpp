@@ -235,6 +235,34 @@ TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
   EXPECT_NEAR(second->objective, residual * residual, 1e-9 * residual * residual);
 }
 
+// A later round's common seeds shift the residuals, not their slopes: Gauss-Newton starts
+// the round from the Jacobian the previous one ended with, so the round's first step comes
+// right after its start point, without differences. The first round starts hundreds of
+// tolerances away (the tolerance is tight so that the confirmation misses): it must step
+// all the same.
+TEST(Optimize, LaterRoundStartsFromThePreviousJacobian) {
+  Result<OptimizeOptions> options = CountOutOfReach(R"({"transform": "range", "low": [1, 22], "width": [0, 5]})");
+  ASSERT_OK(options.status());
+  OptimizeOptions& o = *options;
+  o.targets = {{Metric::kObjectsPerImage, 9, 0.02}};  // reachable, but too tight for 80 fresh layouts
+  o.max_rounds = 2;
+  o.seed = 2;
+  o.layouts = 20;
+  o.confirm_layouts = 80;
+  o.max_evaluations = 40;
+  Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+  ASSERT_OK(r.status());
+  ASSERT_EQ(r->rounds, 2) << r->stop_reason;
+  std::vector<std::string> first_round, second_round;
+  for (const TraceRow& t : r->trace) (t.round == 0 ? first_round : second_round).push_back(t.phase);
+  ASSERT_GE(first_round.size(), 2u);
+  EXPECT_EQ(first_round[1], "jacobian");
+  EXPECT_THAT(first_round, ::testing::Contains("local"));
+  ASSERT_GE(second_round.size(), 2u);
+  EXPECT_EQ(second_round[0], "start");
+  EXPECT_EQ(second_round[1], "local");
+}
+
 // Cancelled after the 3rd evaluation: the report holds the best of those three,
 // unconfirmed; cancelled before any, there is nothing to report.
 TEST(Optimize, CancelledSearchReturnsTheBestPointSoFar) {
