@@ -188,12 +188,13 @@ struct Search {
     for (size_t i = 0; i < dims.size(); ++i) u[i] = (v[i] - dims[i].lo) / (dims[i].hi - dims[i].lo);
     return u;
   }
-  // What the search may still spend: the budget less the time that confirming the best
-  // point on the fresh layouts will take at the rate measured so far, so that max_seconds
-  // bounds the search and its confirmation together.
+  // What the search may still start: the budget less the time that one more evaluation
+  // and confirming the best point on the fresh layouts will take at the rate measured so
+  // far, so that max_seconds bounds the search and its confirmation together.
   double SecondsLeft() const {
     const double per_layout = evaluated_layouts > 0 ? evaluation_seconds / static_cast<double>(evaluated_layouts) : 0;
-    return options.max_seconds - SecondsSince(start) - per_layout * static_cast<double>(options.confirm_layouts);
+    return options.max_seconds - SecondsSince(start) -
+           per_layout * static_cast<double>(layouts + options.confirm_layouts);
   }
   bool OutOfBudget() const { return report.evaluations >= options.max_evaluations || SecondsLeft() <= 0; }
 
