@@ -202,19 +202,27 @@ TEST(Optimize, GaussNewtonMeasuresNoPointTwiceInARound) {
   EXPECT_GT(steps, 4) << r->stop_reason;
 }
 
-// The second round aims, on its common seeds, at the targets shifted by how far the first
-// round's confirmation (fresh seeds) was from them at the same point: its first evaluation
-// then scores exactly as that confirmation does against the real targets.
-TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
-  // The bounds hold the start (U{20..25}), so every point decodes back to what was run.
-  Result<OptimizeOptions> options = CountOutOfReach(R"({"transform": "range", "low": [1, 22], "width": [0, 5]})");
-  ASSERT_OK(options.status());
-  OptimizeOptions& o = *options;  // round one ends unconfirmed
+// Two rounds on small samples (20 common layouts, 80 fresh ones), objects.attempts free
+// within bounds that hold the start (U{20..25}), so every point decodes back to what was
+// run; the targets are CountOutOfReach's until the caller sets others.
+Result<OptimizeOptions> TwoRoundsOfAttempts(int max_evaluations) {
+  SOLID_ASSIGN_OR_RETURN(OptimizeOptions o,
+                         CountOutOfReach(R"({"transform": "range", "low": [1, 22], "width": [0, 5]})"));
   o.max_rounds = 2;
   o.seed = 2;
   o.layouts = 20;
   o.confirm_layouts = 80;
-  o.max_evaluations = 12;
+  o.max_evaluations = max_evaluations;
+  return o;
+}
+
+// The second round aims, on its common seeds, at the targets shifted by how far the first
+// round's confirmation (fresh seeds) was from them at the same point: its first evaluation
+// then scores exactly as that confirmation does against the real targets.
+TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
+  Result<OptimizeOptions> options = TwoRoundsOfAttempts(12);
+  ASSERT_OK(options.status());
+  const OptimizeOptions& o = *options;  // round one ends unconfirmed
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
   ASSERT_EQ(r->rounds, 2) << r->stop_reason;
@@ -241,15 +249,10 @@ TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
 // tolerances away (the tolerance is tight so that the confirmation misses): it must step
 // all the same.
 TEST(Optimize, LaterRoundStartsFromThePreviousJacobian) {
-  Result<OptimizeOptions> options = CountOutOfReach(R"({"transform": "range", "low": [1, 22], "width": [0, 5]})");
+  Result<OptimizeOptions> options = TwoRoundsOfAttempts(40);
   ASSERT_OK(options.status());
   OptimizeOptions& o = *options;
   o.targets = {{Metric::kObjectsPerImage, 9, 0.02}};  // reachable, but too tight for 80 fresh layouts
-  o.max_rounds = 2;
-  o.seed = 2;
-  o.layouts = 20;
-  o.confirm_layouts = 80;
-  o.max_evaluations = 40;
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
   ASSERT_EQ(r->rounds, 2) << r->stop_reason;
