@@ -197,6 +197,13 @@ struct Search {
            per_layout * static_cast<double>(layouts + options.confirm_layouts);
   }
   bool OutOfBudget() const { return report.evaluations >= options.max_evaluations || SecondsLeft() <= 0; }
+  // Why the search stopped: the targets, a budget, or else `otherwise` (the method's own reason).
+  std::string StopReason(std::string otherwise) const {
+    if (met) return "every target within the search margin on the common seeds";
+    if (report.evaluations >= options.max_evaluations) return "max evaluations";
+    if (SecondsLeft() <= 0) return "time budget";
+    return otherwise;
+  }
 
   EvaluationOptions Eval(int64_t first, int64_t n) const {
     return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs, options.cancel};
@@ -297,11 +304,7 @@ struct Search {
     if (result < 0 && result != NLOPT_FORCED_STOP && result != NLOPT_ROUNDOFF_LIMITED) {
       return InternalError(fmt::format("nlopt {}: {}", name, nlopt_result_to_string(result)));
     }
-    report.stop_reason = met ? "every target within the search margin on the common seeds"
-                         : report.evaluations >= options.max_evaluations ? "max evaluations"
-                         : SecondsLeft() <= 0                             ? "time budget"
-                                                                          : fmt::format("{} converged ({})", name,
-                                                                                        nlopt_result_to_string(result));
+    report.stop_reason = StopReason(fmt::format("{} converged ({})", name, nlopt_result_to_string(result)));
     return Status::Ok();
   }
 
@@ -400,11 +403,7 @@ struct Search {
       }
     }
     if (jacobian_current) previous_jacobian = jacobian;
-    report.stop_reason = met ? "every target within the search margin on the common seeds"
-                         : report.evaluations >= options.max_evaluations ? "max evaluations"
-                         : SecondsLeft() <= 0                             ? "time budget"
-                         : converged.empty()                              ? "gauss-newton: evaluation budget"
-                                                                          : "gauss-newton: " + converged;
+    report.stop_reason = StopReason(converged.empty() ? "gauss-newton: evaluation budget" : "gauss-newton: " + converged);
     return Status::Ok();
   }
 
@@ -570,10 +569,8 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         const LayoutParams previous = r.best;
         SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous, &confirmation.metrics).status());
       }
-      if (s.met) {
-        r.stop_reason = "every target within the search margin on the common seeds";
-      } else if (s.OutOfBudget()) {
-        r.stop_reason = r.evaluations >= options.max_evaluations ? "max evaluations" : "time budget";
+      if (s.met || s.OutOfBudget()) {
+        r.stop_reason = s.StopReason("");
       } else {
         if (global && s.round == 0) {
           s.phase = "global";
