@@ -82,7 +82,8 @@ int Bin(double v, double lo, double hi, int bins) {
 }
 
 Result<Stats> Gather(Dataset& dataset) {
-  Stats s;
+  const double area_scale = dataset.manifest().ScaleClassAreaScale();
+  Stats s{MetricsAccumulator(area_scale)};
   for (const ShardFile& file : dataset.shards().targets) {
     SOLID_ASSIGN_OR_RETURN(ShardReader * shard, dataset.Shard(file.index));
     SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, shard->ImageIds());
@@ -106,7 +107,7 @@ Result<Stats> Gather(Dataset& dataset) {
           ++visible;
           s.metrics.AddVisibleInstance(in.visible_area, in.full_area);
           if (in.occlusion) ++s.occlusion[Bin(*in.occlusion, 0, 1, kOcclusionBins)];
-          ++s.scale[static_cast<int>(ScaleClassOfArea(in.visible_area))];
+          ++s.scale[static_cast<int>(ScaleClassOfArea(in.visible_area, area_scale))];
           ++s.views[Bin(in.view_elevation, -std::numbers::pi / 2, std::numbers::pi / 2, kElevationBins)]
                    [Bin(in.view_azimuth, -std::numbers::pi, std::numbers::pi, kAzimuthBins)];
           return Status::Ok();
@@ -117,12 +118,16 @@ Result<Stats> Gather(Dataset& dataset) {
   return s;
 }
 
-// The preset whose layout params are the manifest's, resolution aside.
+// The preset whose layout params are the manifest's, resolution and scale-class
+// resolution aside.
 std::string DetectPreset(const Manifest& manifest) {
   if (!manifest.params.contains("layout")) return {};
   const nlohmann::json::json_pointer resolution("/render/resolution");
   nlohmann::json layout = manifest.params["layout"];
-  if (layout.contains(resolution)) layout.at(resolution.parent_pointer()).erase("resolution");
+  if (layout.contains(resolution)) {
+    layout.at(resolution.parent_pointer()).erase("resolution");
+    layout.at(resolution.parent_pointer()).erase("scale_classes_at");
+  }
   for (const std::string& name : render::PresetNames()) {
     Result<render::LayoutParams> preset = render::LoadPreset(name);
     if (!preset.ok()) continue;
@@ -371,6 +376,8 @@ Result<ReportSummary> WriteReport(const ReportOptions& options) {
                                     m.ShardCount(), m.shard_size)},
       {"query shards", std::to_string(dataset.shards().queries.size())},
       {"resolution", fmt::format("{}x{}", m.width, m.height)},
+      {"scale classes counted at",
+       fmt::format("{}x{}", m.ScaleClassResolution().first, m.ScaleClassResolution().second)},
       {"image format", std::string(ImageFormatName(m.image_format))},
       {"params hash", fmt::format("{:016x}", m.ParamsHash())},
       {"catalog hash", fmt::format("{:016x}", m.catalog_hash)}};
@@ -396,8 +403,10 @@ Result<ReportSummary> WriteReport(const ReportOptions& options) {
     html += fmt::format("<tr><td>{}</td><td class=\"num\">{} ± {}</td>{}</tr>", optimize::MetricName(metric),
                         Format(metric, e.mean), Format(metric, e.ci95), target);
   }
-  html += fmt::format("</table><p class=\"muted\">{} images, {} of {} instances visible.</p></section>",
-                      metrics.images, metrics.visible_instances, stats.instances);
+  const auto [class_width, class_height] = m.ScaleClassResolution();
+  html += fmt::format("</table><p class=\"muted\">{} images, {} of {} instances visible; scale classes counted at "
+                      "{}x{}.</p></section>",
+                      metrics.images, metrics.visible_instances, stats.instances, class_width, class_height);
 
   std::vector<std::string> occ_labels;
   for (int i = 0; i < kOcclusionBins; ++i) occ_labels.push_back(fmt::format("{}", i * 100 / kOcclusionBins));
@@ -410,7 +419,7 @@ Result<ReportSummary> WriteReport(const ReportOptions& options) {
   html += "<section id=\"distributions\"><h2>Distributions</h2><div class=\"plots\">";
   html += BarChart("Occlusion of visible objects", "occlusion (%, bin start)", occ_labels,
                    {stats.occlusion.begin(), stats.occlusion.end()});
-  html += BarChart("Scale classes (visible area)", "COCO scale class", {"small", "medium", "large"},
+  html += BarChart(fmt::format("Scale classes (visible area at {}x{})", class_width, class_height), "COCO scale class", {"small", "medium", "large"},
                    {stats.scale.begin(), stats.scale.end()});
   html += BarChart("Visible objects per image", "objects", object_labels, stats.objects);
   html += "</div></section><section id=\"viewpoints\"><h2>Viewpoints</h2>" + HeatMap(stats) + "</section>";

@@ -43,6 +43,16 @@ Result<const json::Schema*> ManifestSchema() {
 
 uint64_t Manifest::ParamsHash() const { return Xxh64(params.dump()); }
 
+std::pair<uint32_t, uint32_t> Manifest::ScaleClassResolution() const {
+  if (scale_width > 0 && scale_height > 0) return {scale_width, scale_height};
+  return {width, height};
+}
+
+double Manifest::ScaleClassAreaScale() const {
+  const auto [w, h] = ScaleClassResolution();
+  return static_cast<double>(w) * h / (static_cast<double>(width) * height);
+}
+
 nlohmann::json Manifest::ToJson() const {
   nlohmann::json generator = {{"name", generator_name},
                               {"version", generator_version.empty() ? std::string(SOLID_VERSION) : generator_version}};
@@ -55,6 +65,7 @@ nlohmann::json Manifest::ToJson() const {
           {"shard_size", shard_size},
           {"width", width},
           {"height", height},
+          {"scale_classes_at", {ScaleClassResolution().first, ScaleClassResolution().second}},
           {"image_format", ImageFormatName(image_format)},
           {"params", params},
           {"params_hash", Hex64(ParamsHash())},
@@ -81,6 +92,10 @@ Result<Manifest> Manifest::Parse(std::string_view text, std::string_view name) {
   m.shard_size = doc["shard_size"].get<int64_t>();
   m.width = doc["width"].get<uint32_t>();
   m.height = doc["height"].get<uint32_t>();
+  if (doc.contains("scale_classes_at")) {
+    m.scale_width = doc["scale_classes_at"][0].get<uint32_t>();
+    m.scale_height = doc["scale_classes_at"][1].get<uint32_t>();
+  }
   SOLID_ASSIGN_OR_RETURN(m.image_format, ParseImageFormat(doc["image_format"].get<std::string>()));
   m.params = doc["params"];
   if (!ParseHex64(doc["catalog_hash"].get<std::string>(), &m.catalog_hash)) {
@@ -92,6 +107,11 @@ Result<Manifest> Manifest::Parse(std::string_view text, std::string_view name) {
                                     Hex64(m.ParamsHash())));
   }
   return m;
+}
+
+double ScaleClassAreaScaleOfShard(const std::filesystem::path& shard) {
+  const Result<Manifest> manifest = ReadManifest(std::filesystem::absolute(shard).parent_path().parent_path());
+  return manifest.ok() ? manifest->ScaleClassAreaScale() : 1.0;
 }
 
 std::string ManifestDifference(const Manifest& a, const Manifest& b) {
@@ -106,6 +126,8 @@ std::string ManifestDifference(const Manifest& a, const Manifest& b) {
   cmp("shard_size", a.shard_size, b.shard_size);
   cmp("width", a.width, b.width);
   cmp("height", a.height, b.height);
+  cmp("scale_classes_at", fmt::format("{}x{}", a.ScaleClassResolution().first, a.ScaleClassResolution().second),
+      fmt::format("{}x{}", b.ScaleClassResolution().first, b.ScaleClassResolution().second));
   cmp("image_format", ImageFormatName(a.image_format), ImageFormatName(b.image_format));
   cmp("params_hash", Hex64(a.ParamsHash()), Hex64(b.ParamsHash()));
   cmp("catalog_hash", Hex64(a.catalog_hash), Hex64(b.catalog_hash));

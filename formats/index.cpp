@@ -94,7 +94,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
   SOLID_ASSIGN_OR_RETURN(Stmt insert_shard, Stmt::Prepare(db, "INSERT INTO shards VALUES (?, ?, ?, ?, ?, ?, ?, ?)"));
   SOLID_ASSIGN_OR_RETURN(Stmt insert_occurrence, Stmt::Prepare(db, "INSERT INTO occurrences VALUES (?, ?, ?, ?)"));
   std::map<std::string, ModelTotals> models;
-  MetricsAccumulator metrics;
+  MetricsAccumulator metrics(manifest.ScaleClassAreaScale());
   int64_t total = static_cast<int64_t>(listing.targets.size() + listing.queries.size()), done = 0;
   for (const ShardFile& file : listing.targets) {
     if (progress) progress(done++, total);

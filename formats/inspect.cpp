@@ -125,7 +125,7 @@ Result<json> Inspect(const fs::path& path) {
       q["kind"] = "query_shard";
       return q;
     }
-    MetricsAccumulator metrics;
+    MetricsAccumulator metrics(ScaleClassAreaScaleOfShard(path));
     SOLID_ASSIGN_OR_RETURN(json t, TargetShardSummary(path, &metrics));
     t["kind"] = "target_shard";
     t["metrics"] = metrics.Finish().ToJson();
@@ -137,13 +137,13 @@ Result<json> Inspect(const fs::path& path) {
   }
   SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(path));
   SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(path));
-  MetricsAccumulator metrics;
+  MetricsAccumulator metrics(manifest.ScaleClassAreaScale());
   json shards = json::array(), queries = json::array(), unreadable = json::array();
   json totals = {{"images", 0}, {"instances", 0}, {"visible_instances", 0}, {"image_bytes", 0},
                  {"depth_images", 0}, {"rle_bytes", 0}, {"shard_bytes", 0}};
   for (const ShardFile& f : listing.targets) {
     // Metrics are added per shard only once the shard has been read whole.
-    MetricsAccumulator shard_metrics;
+    MetricsAccumulator shard_metrics(manifest.ScaleClassAreaScale());
     Result<json> s = TargetShardSummary(f.path, &shard_metrics);
     if (!s.ok()) {
       unreadable.push_back({{"file", f.path.string()}, {"error", s.status().message()}});
@@ -256,6 +256,8 @@ std::string FormatInspection(const json& j) {
   line("params hash", m["params_hash"].get<std::string>());
   line("resolution", fmt::format("{}x{} {}", m["width"].get<int64_t>(), m["height"].get<int64_t>(),
                                  m["image_format"].get<std::string>()));
+  line("scale classes", fmt::format("counted at {}x{}", m["scale_classes_at"][0].get<int64_t>(),
+                                    m["scale_classes_at"][1].get<int64_t>()));
   line("shards", fmt::format("{} of {} present ({} images each)", j["shards_present"].get<int64_t>(),
                              j["shards_planned"].get<int64_t>(), m["shard_size"].get<int64_t>()));
   line("images", fmt::format("{} of {} planned", t["images"].get<int64_t>(), m["images"].get<int64_t>()));

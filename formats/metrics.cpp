@@ -63,9 +63,7 @@ void MetricsAccumulator::AddVisibleInstance(uint64_t visible_area, uint64_t full
     occlusion_.Add(static_cast<double>(full_area - std::min(full_area, visible_area)) /
                    static_cast<double>(full_area));
   }
-  const uint64_t scaled_area =
-      area_scale_ == 1 ? visible_area : static_cast<uint64_t>(std::llround(static_cast<double>(visible_area) * area_scale_));
-  switch (ScaleClassOfArea(scaled_area)) {
+  switch (ScaleClassOfArea(visible_area, area_scale_)) {
     case ScaleClass::kSmall: ++small_; break;
     case ScaleClass::kMedium: ++medium_; break;
     case ScaleClass::kLarge: ++large_; break;

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 namespace solid {
 
 std::string_view ImageFormatName(ImageFormat f) {
@@ -36,13 +38,16 @@ Result<ScaleClass> ParseScaleClass(std::string_view name) {
   return InvalidArgumentError(fmt::format("unknown scale class '{}'", name));
 }
 
-ScaleClass ScaleClassOfArea(uint64_t visible_area) {
-  if (visible_area < 32 * 32) return ScaleClass::kSmall;
-  if (visible_area <= 96 * 96) return ScaleClass::kMedium;
+ScaleClass ScaleClassOfArea(uint64_t visible_area, double area_scale) {
+  const uint64_t area =
+      area_scale == 1 ? visible_area : static_cast<uint64_t>(std::llround(static_cast<double>(visible_area) * area_scale));
+  if (area < 32 * 32) return ScaleClass::kSmall;
+  if (area <= 96 * 96) return ScaleClass::kMedium;
   return ScaleClass::kLarge;
 }
 
-Status SetInstanceMasks(const rle::Rle& visible, const rle::Rle& full, InstanceRecord* instance) {
+Status SetInstanceMasks(const rle::Rle& visible, const rle::Rle& full, InstanceRecord* instance,
+                        double area_scale) {
   if (visible.height != full.height || visible.width != full.width) {
     return InvalidArgumentError(fmt::format("visible mask is {}x{}, full mask {}x{}", visible.width,
                                             visible.height, full.width, full.height));
@@ -54,16 +59,19 @@ Status SetInstanceMasks(const rle::Rle& visible, const rle::Rle& full, InstanceR
   instance->full_rle = rle::ToString(full);
   instance->visible_box = rle::ToBbox(visible);
   instance->full_box = rle::ToBbox(full);
-  instance->visible_area = rle::Area(visible);
-  instance->full_area = rle::Area(full);
+  SetInstanceAreas(rle::Area(visible), rle::Area(full), instance, area_scale);
+  return Status::Ok();
+}
+
+void SetInstanceAreas(uint64_t visible_area, uint64_t full_area, InstanceRecord* instance, double area_scale) {
+  instance->visible_area = visible_area;
+  instance->full_area = full_area;
   instance->occlusion.reset();
-  if (instance->full_area > 0) {
-    instance->occlusion = static_cast<double>(instance->full_area - instance->visible_area) /
-                          static_cast<double>(instance->full_area);
+  if (full_area > 0) {
+    instance->occlusion = static_cast<double>(full_area - visible_area) / static_cast<double>(full_area);
   }
   instance->scale_class.reset();
-  if (instance->visible_area > 0) instance->scale_class = ScaleClassOfArea(instance->visible_area);
-  return Status::Ok();
+  if (visible_area > 0) instance->scale_class = ScaleClassOfArea(visible_area, area_scale);
 }
 
 }  // namespace solid

@@ -57,7 +57,9 @@ class Checker {
     return std::move(r).value();
   }
 
-  void CheckInstance(const std::string& where, const InstanceRecord& in, uint32_t height, uint32_t width) {
+  // `area_scale`: the dataset's Manifest::ScaleClassAreaScale.
+  void CheckInstance(const std::string& where, const InstanceRecord& in, uint32_t height, uint32_t width,
+                     double area_scale) {
     std::optional<rle::Rle> visible = CheckRle(where, "visible_rle", in.visible_rle, height, width);
     std::optional<rle::Rle> full = CheckRle(where, "full_rle", in.full_rle, height, width);
     auto expect_box = [&](std::string_view field, const rle::Box& stored, const rle::Box& actual) {
@@ -96,10 +98,11 @@ class Checker {
     }
     if (in.visible_area == 0) {
       if (in.scale_class) Problem(where + ": scale_class", "set although visible_area is 0");
-    } else if (!in.scale_class || *in.scale_class != ScaleClassOfArea(in.visible_area)) {
+    } else if (!in.scale_class || *in.scale_class != ScaleClassOfArea(in.visible_area, area_scale)) {
       Problem(where + ": scale_class",
-              fmt::format("stored {}, visible_area {} is {}", in.scale_class ? ScaleClassName(*in.scale_class) : "NULL",
-                          in.visible_area, ScaleClassName(ScaleClassOfArea(in.visible_area))));
+              fmt::format("stored {}, visible_area {} is {}{}", in.scale_class ? ScaleClassName(*in.scale_class) : "NULL",
+                          in.visible_area, ScaleClassName(ScaleClassOfArea(in.visible_area, area_scale)),
+                          area_scale == 1 ? "" : fmt::format(" counted as {:g} pixels", in.visible_area * area_scale)));
     }
   }
 
@@ -129,8 +132,11 @@ class Checker {
   }
 
   // Returns the model keys the shard's instances use.
+  // Without a manifest, scale classes are checked as the dataset holding the shard counts
+  // them, if it is in one (ScaleClassAreaScaleOfShard).
   std::set<std::string> CheckTargetShard(const fs::path& path, const Manifest* manifest,
                                          std::optional<int64_t> shard_index) {
+    const double area_scale = manifest ? manifest->ScaleClassAreaScale() : ScaleClassAreaScaleOfShard(path);
     std::set<std::string> models;
     ++report_->shards;
     CheckIntegrity(path);
@@ -175,7 +181,7 @@ class Checker {
         ++report_->instances;
         models.insert(in.model_key);
         CheckInstance(fmt::format("{}: instances (image {} #{})", path.string(), id, in.ordinal), in, im->height,
-                      im->width);
+                      im->width, area_scale);
       }
     }
     // Instances whose image row is missing escape the per-image walk above.

@@ -73,6 +73,11 @@ constexpr Bounds kNonNegativeM{0, 1000};
 constexpr Bounds kPositiveM{0, 1000, true};
 constexpr Bounds kSignedM{-1000, 1000};
 
+// Marks a knob that is absent from the JSON form while it is zero (its default means "as
+// another knob": scale_classes_at follows the resolution).
+struct UnsetIsZero {};
+constexpr UnsetIsZero kUnsetIsZero;
+
 // Every knob once, by its JSON Pointer, so that reading, writing and checking cannot drift
 // apart. `Params` is LayoutParams or const LayoutParams.
 template <typename Params, typename Visitor>
@@ -108,6 +113,7 @@ void ForEachKnob(Params& p, Visitor&& visit) {
   visit("/sampling/max_scene_restarts", p.max_scene_restarts, Bounds{0, 100000});
   visit("/render/resolution", std::tie(p.width, p.height), Bounds{16, 8192});
   visit("/render/min_visible_pixels", p.min_visible_pixels, Bounds{1, 8192.0 * 8192.0});
+  visit("/render/scale_classes_at", std::tie(p.scale_width, p.scale_height), Bounds{16, 8192}, kUnsetIsZero);
 }
 
 nlohmann::json IntervalToJson(const Interval& v) { return nlohmann::json::array({v.lo, v.hi}); }
@@ -165,6 +171,11 @@ struct Writer {
   template <typename T, typename... Ignored>
   void operator()(std::string_view pointer, const T& value, const Ignored&...) const {
     out[nlohmann::json::json_pointer(std::string(pointer))] = ToJson(value);
+  }
+
+  void operator()(std::string_view pointer, const std::tuple<const int&, const int&>& value, const Bounds&,
+                  UnsetIsZero) const {
+    if (std::get<0>(value) != 0 || std::get<1>(value) != 0) (*this)(pointer, value);
   }
 
   static nlohmann::json ToJson(double v) { return v; }
@@ -237,6 +248,10 @@ struct Checker {
   void operator()(std::string_view pointer, const std::tuple<const int&, const int&>& v, const Bounds& b) const {
     InBounds(fmt::format("{}/0", pointer), "", std::get<0>(v), b);
     InBounds(fmt::format("{}/1", pointer), "", std::get<1>(v), b);
+  }
+  void operator()(std::string_view pointer, const std::tuple<const int&, const int&>& v, const Bounds& b,
+                  UnsetIsZero) const {
+    if (std::get<0>(v) != 0 || std::get<1>(v) != 0) (*this)(pointer, v, b);
   }
   template <typename E>
     requires std::is_enum_v<E>
@@ -399,6 +414,22 @@ nlohmann::json ParamsToJson(const LayoutParams& params) {
   nlohmann::json out = nlohmann::json::object();
   ForEachKnob(params, Writer{out});
   return out;
+}
+
+std::pair<int, int> ScaleClassResolution(const LayoutParams& params) {
+  if (params.scale_width > 0 && params.scale_height > 0) return {params.scale_width, params.scale_height};
+  return {params.width, params.height};
+}
+
+double ScaleClassAreaScale(const LayoutParams& params, int width, int height) {
+  const auto [w, h] = ScaleClassResolution(params);
+  return static_cast<double>(w) * h / (static_cast<double>(width) * height);
+}
+
+std::string ScaleClassDescription(const LayoutParams& params) {
+  const auto [w, h] = ScaleClassResolution(params);
+  if (w == params.width && h == params.height) return fmt::format("{}x{}", w, h);
+  return fmt::format("{}x{} (scale_classes_at; rendered at {}x{})", w, h, params.width, params.height);
 }
 
 Status CheckParams(const LayoutParams& params, std::string_view source) {

@@ -11,6 +11,7 @@
 #include <numbers>
 #include <set>
 #include <thread>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -391,6 +392,7 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   m.shard_size = options.shard_size;
   m.width = static_cast<uint32_t>(p.width);
   m.height = static_cast<uint32_t>(p.height);
+  std::tie(m.scale_width, m.scale_height) = ScaleClassResolution(p);
   m.image_format = options.format;
   nlohmann::json render = {{"samples_per_pixel", options.shading.samples_per_pixel},
                            {"depth", options.depth},

@@ -120,8 +120,8 @@ TEST(Presets, FollowTheRandomPlacementRowOfTable42) {
   EXPECT_EQ(p.camera_height_m, (Interval{0.1, 5.0}));
   EXPECT_EQ(p.camera_look_z_m, (Interval{0.0, 2.0}));
   EXPECT_EQ(p.attempts, (Interval{9, 9}));
-  EXPECT_EQ(p.width, 320);
-  EXPECT_EQ(p.height, 240);
+  EXPECT_EQ(p.width, 640);
+  EXPECT_EQ(p.height, 480);
 }
 
 TEST(Presets, FollowTheMoreObjectsRowOfTable42) {
@@ -135,11 +135,47 @@ TEST(Presets, FollowTheMoreObjectsRowOfTable42) {
   EXPECT_EQ(p.camera_height_m, (Interval{0.1, 2.0}));
   EXPECT_EQ(p.camera_look_z_m, (Interval{0.1, 2.1}));
   EXPECT_EQ(p.attempts, (Interval{20, 25}));
-  EXPECT_EQ(p.width, 320);
-  EXPECT_EQ(p.height, 240);
+  EXPECT_EQ(p.width, 640);
+  EXPECT_EQ(p.height, 480);
 }
 
 // Each Table 1 row keeps everything from the row before and changes one thing (4.2 in bold).
+// solid-method.md 4.2, "Resolution": Table 1's scale shares are areas at 640x480.
+TEST(Presets, EveryPresetRendersAndCountsScaleClassesAt640x480) {
+  for (const std::string& name : PresetNames()) {
+    SCOPED_TRACE(name);
+    const LayoutParams p = Preset(name);
+    EXPECT_EQ(std::pair(p.width, p.height), std::pair(640, 480));
+    EXPECT_EQ(ScaleClassResolution(p), std::pair(640, 480));
+    EXPECT_EQ(ScaleClassAreaScale(p, p.width, p.height), 1.0);
+    EXPECT_FALSE(ParamsToJson(p).contains(nlohmann::json::json_pointer("/render/scale_classes_at")));
+  }
+}
+
+TEST(ScaleClassesAt, FollowsTheResolutionUnlessSetAndRoundTrips) {
+  Result<LayoutParams> p = Parse(R"({"preset": "occlusion", "render": {"resolution": [320, 240]}})");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  EXPECT_EQ(ScaleClassResolution(*p), std::pair(320, 240));
+  EXPECT_EQ(ScaleClassDescription(*p), "320x240");
+
+  p = Parse(R"({"preset": "occlusion", "render": {"resolution": [320, 240], "scale_classes_at": [640, 480]}})");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  EXPECT_EQ(ScaleClassResolution(*p), std::pair(640, 480));
+  // A 320x240 area counts four times: 256 pixels there are COCO's 32^2 at 640x480.
+  EXPECT_EQ(ScaleClassAreaScale(*p, 320, 240), 4.0);
+  EXPECT_EQ(ScaleClassAreaScale(*p, 160, 120), 16.0);
+  EXPECT_EQ(ScaleClassDescription(*p), "640x480 (scale_classes_at; rendered at 320x240)");
+  const nlohmann::json j = ParamsToJson(*p);
+  EXPECT_EQ(j["render"]["scale_classes_at"], nlohmann::json::array({640, 480}));
+  Result<LayoutParams> again = ParseParams(j, "", "round trip");
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  EXPECT_EQ(*again, *p);
+
+  Result<LayoutParams> bad = Parse(R"({"preset": "occlusion", "render": {"scale_classes_at": [8, 480]}})");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.status().message(), HasSubstr("/render/scale_classes_at/0"));
+}
+
 TEST(Presets, ConsecutiveRowsDifferExactlyInTheKnobsTable42Changes) {
   const std::vector<std::pair<std::string, std::set<std::string>>> rows = {
       {"random-placement", {}},

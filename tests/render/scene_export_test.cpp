@@ -66,7 +66,7 @@ TEST(ExportScene, NodesCarryTheSampledTransformsAndTheCamera) {
   const json& camera = g["nodes"][layout.objects.size() + 1];
   EXPECT_EQ(camera["camera"], 0);
   ExpectMatrix(camera["matrix"], layout.camera.world_from_camera);
-  EXPECT_NEAR(g["cameras"][0]["perspective"]["aspectRatio"].get<double>(), 320.0 / 240.0, 1e-12);
+  EXPECT_NEAR(g["cameras"][0]["perspective"]["aspectRatio"].get<double>(), 640.0 / 480.0, 1e-12);
 
   // One mesh per model: instances of a repeated model share it.
   std::set<std::string> models;

@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -36,12 +37,20 @@ struct Manifest {
   int64_t images = 0;
   int64_t shard_size = 256;
   uint32_t width = 640, height = 480;
+  // The resolution COCO's scale classes are counted at (params render.scale_classes_at,
+  // solid-method.md 4.2); 0 x 0: width x height. Stored instances' scale_class and every
+  // metric of the dataset use it.
+  uint32_t scale_width = 0, scale_height = 0;
   ImageFormat image_format = ImageFormat::kPng;
   nlohmann::json params = nlohmann::json::object();  // resolved generation parameters
   uint64_t catalog_hash = 0;
 
   // XXH64 of the canonical dump of params (keys sorted, no spaces).
   uint64_t ParamsHash() const;
+  std::pair<uint32_t, uint32_t> ScaleClassResolution() const;
+  // How many times more pixels the scale-class resolution has than the images: the
+  // area_scale of ScaleClassOfArea and MetricsAccumulator for this dataset's masks.
+  double ScaleClassAreaScale() const;
   int64_t ShardCount() const { return shard_size > 0 ? (images + shard_size - 1) / shard_size : 0; }
 
   nlohmann::json ToJson() const;
@@ -68,6 +77,10 @@ struct DatasetPaths {
 // Creates the directory tree and writes manifest.json atomically.
 Status CreateDataset(const std::filesystem::path& root, const Manifest& manifest);
 Result<Manifest> ReadManifest(const std::filesystem::path& root);
+
+// The ScaleClassAreaScale of the dataset a target shard file lies in (its manifest two
+// folders up), or 1 when it lies in none: what a shard read alone is classed with.
+double ScaleClassAreaScaleOfShard(const std::filesystem::path& shard);
 
 struct ShardFile {
   int64_t index = 0;

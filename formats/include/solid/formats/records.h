@@ -23,7 +23,10 @@ Result<ImageFormat> ParseImageFormat(std::string_view name);
 enum class ScaleClass { kSmall, kMedium, kLarge };
 std::string_view ScaleClassName(ScaleClass c);  // "small", "medium", "large"
 Result<ScaleClass> ParseScaleClass(std::string_view name);
-ScaleClass ScaleClassOfArea(uint64_t visible_area);
+// `area_scale`: the area was measured at a resolution with that many times fewer pixels
+// than the one the classes are counted at (scale_classes_at, solid-method.md 4.2): it is
+// classed as round(visible_area * area_scale).
+ScaleClass ScaleClassOfArea(uint64_t visible_area, double area_scale = 1);
 
 // Row-major 3x4 [R | t] affine transform, metres.
 using Affine3x4 = std::array<double, 12>;
@@ -69,8 +72,13 @@ struct InstanceRecord {
 // Fills the mask-derived fields of `instance` (strings, boxes, areas, occlusion,
 // scale class) from its visible and full masks, so that they agree by
 // construction. kInvalidArgument when the sizes differ or visible is not
-// contained in full.
-Status SetInstanceMasks(const rle::Rle& visible, const rle::Rle& full, InstanceRecord* instance);
+// contained in full. `area_scale` as for ScaleClassOfArea.
+Status SetInstanceMasks(const rle::Rle& visible, const rle::Rle& full, InstanceRecord* instance,
+                        double area_scale = 1);
+
+// The area-derived fields alone (areas, occlusion, scale class), for a pass that counts
+// pixels without keeping masks; agrees with SetInstanceMasks on the same masks.
+void SetInstanceAreas(uint64_t visible_area, uint64_t full_area, InstanceRecord* instance, double area_scale = 1);
 
 struct QueryModelRecord {
   std::string model_key;

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -97,8 +98,13 @@ struct LayoutParams {
   int max_scene_restarts = 20;  // an empty layout or image restarts the scene on a derived stream
 
   // render
-  int width = 320, height = 240;
+  int width = 640, height = 480;
   int min_visible_pixels = 1;  // an object with fewer visible pixels is not counted or annotated
+  // COCO's scale classes counted as at this resolution (0 x 0: at width x height): the
+  // areas are scaled by the pixel-count ratio before the 32^2 / 96^2 thresholds, so a
+  // dataset rendered at 320x240 can be classed as Table 1's 640x480 areas (solid-method.md
+  // 4.2, "Resolution"). Written to JSON only when set.
+  int scale_width = 0, scale_height = 0;
 
   friend bool operator==(const LayoutParams&, const LayoutParams&) = default;
 };
@@ -121,6 +127,17 @@ const std::vector<std::string>& PresetNames();
 // Every knob, explicitly, in the JSON form: ParseParams(ParamsToJson(p)) == p.
 // Used for manifests and optimizer outputs, and hashed for provenance.
 nlohmann::json ParamsToJson(const LayoutParams& params);
+
+// The resolution at which COCO's scale classes are counted: scale_classes_at when set,
+// else the render resolution.
+std::pair<int, int> ScaleClassResolution(const LayoutParams& params);
+
+// How many times more pixels the scale-class resolution has than `width` x `height`: an
+// area measured at that size is classed as area * this (MetricsAccumulator, SetInstanceMasks).
+double ScaleClassAreaScale(const LayoutParams& params, int width, int height);
+
+// "640x480", or "640x480 (scale_classes_at; rendered at 320x240)": what reports print.
+std::string ScaleClassDescription(const LayoutParams& params);
 
 // Checks the semantic rules the schema cannot express (intervals ordered, bucket
 // probabilities summing to 1, a camera ring that fits the grid, ...). `source`
