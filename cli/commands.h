@@ -36,11 +36,11 @@ Result<std::pair<int, int>> ParseResolution(std::string_view flag, const std::st
 
 // Where layout params come from, for every command that samples layouts.
 struct ParamsFlags {
-  std::string params, preset, resolution;
+  std::string params, preset, resolution, scale_classes_at;
 };
-// Registers --params, --preset (mutually exclusive) and --resolution on `cmd`.
+// Registers --params, --preset (mutually exclusive), --resolution and --scale-classes-at on `cmd`.
 void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags);
-// The params file or preset, with --resolution applied; kInvalidArgument when neither
+// The params file or preset, with --resolution and --scale-classes-at applied; kInvalidArgument when neither
 // is given or the resolution is malformed.
 Result<render::LayoutParams> ResolveParams(const ParamsFlags& flags);
 

@@ -27,16 +27,25 @@ void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags) {
   params->excludes(preset);
   preset->excludes(params);
   cmd->add_option("--resolution", flags->resolution,
-                  "WIDTHxHEIGHT, overrides the params' (the presets say 320x240, Table 1's resolution)");
+                  "WIDTHxHEIGHT, overrides the params' (the presets say 640x480, where Table 1's areas are)");
+  cmd->add_option("--scale-classes-at", flags->scale_classes_at,
+                  "WIDTHxHEIGHT: count COCO's small/medium/large as at this resolution (areas scaled by the "
+                  "pixel-count ratio); overrides the params' render.scale_classes_at (default: the resolution)");
 }
 
 Result<render::LayoutParams> ResolveParams(const ParamsFlags& f) {
   if (f.params.empty() && f.preset.empty()) return InvalidArgumentError("give --params FILE or --preset NAME");
   Result<render::LayoutParams> params =
       !f.params.empty() ? render::LoadParamsFile(f.params) : render::LoadPreset(f.preset);
-  if (!params.ok() || f.resolution.empty()) return params;
-  SOLID_ASSIGN_OR_RETURN(const auto size, ParseResolution("--resolution", f.resolution));
-  std::tie(params->width, params->height) = size;
+  if (!params.ok()) return params;
+  if (!f.resolution.empty()) {
+    SOLID_ASSIGN_OR_RETURN(const auto size, ParseResolution("--resolution", f.resolution));
+    std::tie(params->width, params->height) = size;
+  }
+  if (!f.scale_classes_at.empty()) {
+    SOLID_ASSIGN_OR_RETURN(const auto size, ParseResolution("--scale-classes-at", f.scale_classes_at));
+    std::tie(params->scale_width, params->scale_height) = size;
+  }
   return params;
 }
 

@@ -2,11 +2,14 @@
 
 #include <cmath>
 #include <iostream>
+#include <tuple>
 
 #include "commands.h"
 #include "exit_codes.h"
 #include "signals.h"
+#include "solid/formats/dataset.h"
 #include "solid/formats/files.h"
+#include "solid/optimize/coco_targets.h"
 #include "solid/optimize/optimize.h"
 #include "solid/render/sample.h"
 
@@ -16,7 +19,8 @@ namespace {
 using optimize::Metric;
 
 struct OptimizeFlags {
-  std::string preset, params, space, assets, rooms, out, trace, target_row, eval_resolution;
+  std::string preset, params, space, assets, rooms, out, trace, target_row, eval_resolution, match_coco;
+  bool skip_empty_images = false;
   std::vector<std::string> free, fix;
   std::optional<double> count, occlusion;
   std::vector<double> scale;
@@ -26,10 +30,12 @@ struct OptimizeFlags {
   optimize::OptimizeOptions options;
   uint64_t asset_cache_mb = 2048;
   bool json = false;
+  bool refit = false;
 };
 
-// --target-row first, then the single targets override or add.
-Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f) {
+// --target-row first, then --match-coco's count and shares, then the single targets
+// override or add. `start` gives the resolution the COCO areas are classed at.
+Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f, const render::LayoutParams& start) {
   std::vector<optimize::Target> targets;
   if (!f.target_row.empty()) {
     SOLID_ASSIGN_OR_RETURN(targets, optimize::TableRowTargets(f.target_row));
@@ -38,6 +44,31 @@ Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f) {
     std::erase_if(targets, [&](const optimize::Target& t) { return t.metric == m; });
     targets.push_back({m, value, 0});
   };
+  if (!f.match_coco.empty()) {
+    optimize::CocoMatchOptions coco;
+    std::tie(coco.width, coco.height) = render::ScaleClassResolution(start);
+    coco.skip_empty_images = f.skip_empty_images;
+    SOLID_ASSIGN_OR_RETURN(const optimize::CocoMatch match, optimize::TargetsFromCoco(f.match_coco, coco));
+    fmt::print(stderr, "solid: targets from {}: {} images ({} counted, {} without annotations{}), {} annotations "
+                       "({} crowd left out), areas classed at {}x{}\n",
+               f.match_coco, match.images, match.images_counted, match.empty_images,
+               f.skip_empty_images ? ", skipped" : ", counted as 0 objects", match.annotations, match.crowd_skipped,
+               match.width, match.height);
+    for (const optimize::Target& t : match.targets) {
+      const Estimate e = t.metric == Metric::kObjectsPerImage ? match.objects_per_image
+                         : t.metric == Metric::kSmall         ? match.small
+                         : t.metric == Metric::kMedium        ? match.medium
+                                                              : match.large;
+      fmt::print(stderr, "solid:   {:<18} {:>8} +- {} (n = {})\n", optimize::MetricName(t.metric),
+                 Percent(t.metric, t.value), Percent(t.metric, e.ci95),
+                 t.metric == Metric::kObjectsPerImage ? match.images_counted : match.annotations);
+      set(t.metric, t.value);
+    }
+    if (!f.occlusion && f.target_row.empty()) {
+      fmt::print(stderr, "solid:   occlusion is not in COCO annotations and is left free (--target-occlusion or "
+                         "--target-row sets it)\n");
+    }
+  }
   if (f.count) set(Metric::kObjectsPerImage, *f.count);
   if (f.occlusion) set(Metric::kOcclusion, *f.occlusion);
   if (!f.scale.empty()) {
@@ -51,7 +82,9 @@ Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f) {
                   : t.metric == Metric::kOcclusion     ? f.tol_occlusion
                                                        : f.tol_scale;
   }
-  if (targets.empty()) return InvalidArgumentError("no target: give --target-row or --target-count/-occlusion/-scale");
+  if (targets.empty()) {
+    return InvalidArgumentError("no target: give --target-row, --match-coco or --target-count/-occlusion/-scale");
+  }
   return targets;
 }
 
@@ -63,12 +96,13 @@ void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
   fmt::print("{} after {} evaluations, {} round(s), {:.1f} s: {}\n",
              r.cancelled ? "STOPPED" : r.all_met ? "MET" : "NOT MET", r.evaluations, r.rounds, r.seconds,
              r.stop_reason);
+  fmt::print("scale classes counted at {}\n", render::ScaleClassDescription(r.best));
   if (r.cancelled) {
     fmt::print("evaluation resolution {}x{}; achieved = the search's common layouts (95% CI), unconfirmed\n",
                r.eval_width, r.eval_height);
   } else {
-    fmt::print("evaluation resolution {}x{}; achieved = {} fresh layouts (95% CI)\n", r.eval_width, r.eval_height,
-               r.confirmation.images);
+    fmt::print("evaluations at {}x{}; achieved = {} fresh layouts at the output resolution {}x{} (95% CI)\n",
+               r.eval_width, r.eval_height, r.confirmation.images, r.best.width, r.best.height);
   }
   fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", "metric", "target", "tol", "achieved", r.pilot ? "  pilot (output res)" : "");
   for (const optimize::TargetResult& t : r.results) {
@@ -121,7 +155,7 @@ int RunOptimize(OptimizeFlags& f) {
     if (Status s = space.Fix(k); !s.ok()) return Fail(s);
   }
   o.space = std::move(space);
-  SOLID_ASSIGN_OR_RETURN_EXIT(o.targets, ResolveTargets(f));
+  SOLID_ASSIGN_OR_RETURN_EXIT(o.targets, ResolveTargets(f, o.start));
   if (!f.eval_resolution.empty()) {
     SOLID_ASSIGN_OR_RETURN_EXIT(auto wh, ParseResolution("--eval-resolution", f.eval_resolution));
     std::tie(o.eval_width, o.eval_height) = wh;
@@ -135,6 +169,29 @@ int RunOptimize(OptimizeFlags& f) {
                t.evaluation, t.round, t.phase, t.objective, m.objects_per_image.mean, 100 * m.occlusion.mean,
                100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, t.seconds);
   };
+  const optimize::FitFiles files{f.out, f.trace};
+  const uint64_t fingerprint = optimize::FitFingerprint(o, library->catalog_hash());
+  if (!f.refit) {
+    if (const std::optional<nlohmann::json> fit = optimize::ReusableFit(files, fingerprint)) {
+      const bool met = fit->value("all_met", false);
+      if (f.json) {
+        std::cout << fit->dump(2) << "\n";
+      } else {
+        fmt::print("{} is up to date: fitted for these assets, start, targets and options ({} after {} evaluations, "
+                   "{:.1f} s); nothing to do (--refit fits again)\n",
+                   f.out, met ? "MET" : "NOT MET", fit->value("evaluations", 0), fit->value("seconds", 0.0));
+        for (const nlohmann::json& t : fit->value("targets", nlohmann::json::array())) {
+          const Metric m = optimize::MetricByName(t.value("metric", "")).value_or(Metric::kObjectsPerImage);
+          fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", t.value("metric", ""), Percent(m, t.value("target", 0.0)),
+                     Percent(m, t.value("tolerance", 0.0)),
+                     fmt::format("{} +- {}", Percent(m, t["achieved"].value("mean", 0.0)),
+                                 Percent(m, t["achieved"].value("ci95", 0.0))),
+                     t.value("met", false) ? "ok" : "MISSED");
+        }
+      }
+      return met ? kExitOk : kExitProblems;
+    }
+  }
   o.cancel = InstallStopHandlers();
   Result<optimize::OptimizeReport> optimized = optimize::Optimize(library, o);
   if (optimized.status().code() == StatusCode::kCancelled) {
@@ -142,21 +199,13 @@ int RunOptimize(OptimizeFlags& f) {
     return StopExitCode();
   }
   SOLID_ASSIGN_OR_RETURN_EXIT(optimize::OptimizeReport report, std::move(optimized));
-  nlohmann::json params = render::ParamsToJson(report.best);
-  params["$comment"] = report.cancelled
-                           ? fmt::format("solid optimize: stopped by {} after {} evaluations; the best point so far, "
-                                         "not confirmed on fresh layouts",
-                                         StopSignalName(), report.evaluations)
-                           : fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
-                                         report.all_met ? "met" : "NOT met");
-  const std::string text = params.dump(2) + "\n";
-  const std::string trace = f.trace.empty() ? std::string() : optimize::TraceText(report, f.trace);
-  auto bytes = [](const std::string& t) { return std::span(reinterpret_cast<const uint8_t*>(t.data()), t.size()); };
-  // The trace first: should a rename fail between the two, the params file is the old one.
-  std::vector<files::FileContent> outputs;
-  if (!f.trace.empty()) outputs.push_back({f.trace, bytes(trace)});
-  outputs.push_back({f.out, bytes(text)});
-  if (Status s = files::WriteFilesAtomically(outputs); !s.ok()) return Fail(s);
+  const std::string comment = report.cancelled
+                                  ? fmt::format("solid optimize: stopped by {} after {} evaluations; the best point so "
+                                                "far, not confirmed on fresh layouts",
+                                                StopSignalName(), report.evaluations)
+                                  : fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
+                                                report.all_met ? "met" : "NOT met");
+  if (Status s = optimize::WriteFit(report, files, fingerprint, comment); !s.ok()) return Fail(s);
   if (f.json) {
     std::cout << report.ToJson().dump(2) << "\n";
   } else {
@@ -183,6 +232,9 @@ struct MetricsFlags {
 
 int RunMetrics(const MetricsFlags& f) {
   SOLID_ASSIGN_OR_RETURN_EXIT(ProxyMetrics measured, optimize::DatasetMetrics(f.dataset));
+  SOLID_ASSIGN_OR_RETURN_EXIT(const Manifest manifest, ReadManifest(f.dataset));
+  const std::string scale_classes =
+      fmt::format("{}x{}", manifest.ScaleClassResolution().first, manifest.ScaleClassResolution().second);
   std::vector<optimize::Comparison> comparisons;
   std::string against;
   if (!f.target_row.empty()) {
@@ -207,7 +259,9 @@ int RunMetrics(const MetricsFlags& f) {
   bool agree = true;
   for (const optimize::Comparison& c : comparisons) agree = agree && c.agrees;
   if (f.json) {
-    nlohmann::json j = {{"dataset", f.dataset}, {"metrics", measured.ToJson()}};
+    nlohmann::json j = {{"dataset", f.dataset},
+                        {"metrics", measured.ToJson()},
+                        {"scale_classes_at", {manifest.ScaleClassResolution().first, manifest.ScaleClassResolution().second}}};
     if (!comparisons.empty()) {
       nlohmann::json rows = nlohmann::json::array();
       for (const optimize::Comparison& c : comparisons) {
@@ -223,8 +277,8 @@ int RunMetrics(const MetricsFlags& f) {
     }
     std::cout << j.dump(2) << "\n";
   } else {
-    fmt::print("{}: {} images, {} visible instances (95% CI)\n", f.dataset, measured.images,
-               measured.visible_instances);
+    fmt::print("{}: {} images, {} visible instances (95% CI), scale classes counted at {}\n", f.dataset,
+               measured.images, measured.visible_instances, scale_classes);
     if (!comparisons.empty()) fmt::print("compared with {}\n", against);
     for (const optimize::Comparison& c : optimize::CompareWithPrediction(measured, measured)) {
       const Metric m = c.metric;
@@ -263,6 +317,11 @@ Command AddOptimize(CLI::App& app) {
   cmd->add_option("--out,-o", f->out, "Params file to write (usable by solid sample --params)")->required();
   cmd->add_option("--trace", f->trace, "Write every evaluation to this file (.csv, else JSON)");
   cmd->add_option("--target-row", f->target_row, "Targets of a Table-1 row (a preset name)");
+  cmd->add_option("--match-coco", f->match_coco,
+                  "Targets for the count and the small/medium/large shares from a COCO instances file (your "
+                  "downstream data): crowd annotations left out, each area rescaled to the scale-class resolution");
+  cmd->add_flag("--skip-empty-images", f->skip_empty_images,
+                "With --match-coco: leave out images without annotations (default: they count as 0 objects)");
   cmd->add_option("--target-count", f->count, "Target visible objects per image");
   cmd->add_option("--target-occlusion", f->occlusion, "Target mean occlusion, a fraction (0.38)");
   cmd->add_option("--target-scale", f->scale, "Target small,medium,large shares, fractions (0.33,0.39,0.28)")
@@ -291,6 +350,9 @@ Command AddOptimize(CLI::App& app) {
   cmd->add_option("--seed", o.seed, "Layout seed")->capture_default_str();
   cmd->add_option("--jobs,-j", o.jobs, "Layouts in parallel (default: all cores)");
   cmd->add_flag("--json", f->json, "Print the summary as JSON");
+  cmd->add_flag("--refit", f->refit,
+                "Fit even when --out was fitted by an earlier run for the same assets, start, targets and options "
+                "(its fit record, OUT.fit.json, says so)");
   return [f]() { return RunOptimize(*f); };
 }
 

@@ -30,6 +30,7 @@ void PrintReport(const render::SampleReport& r, const render::LayoutParams& p) {
   fmt::print("layouts            {} ({} failed, {} restarts)\n", r.layouts, r.failed_layouts, r.restarts);
   for (const std::string& f : r.failures) fmt::print("  failed: {}\n", f);
   fmt::print("resolution         {}x{}\n", p.width, p.height);
+  fmt::print("scale classes      counted at {}\n", render::ScaleClassDescription(p));
   fmt::print("objects per image  {:.2f} +- {:.2f}   (placed {:.2f} of {:.2f} attempts)\n", m.objects_per_image.mean,
              m.objects_per_image.ci95, r.mean_placed, r.mean_attempts);
   fmt::print("occlusion          {:.1f}% +- {:.1f}\n", 100 * m.occlusion.mean, 100 * m.occlusion.ci95);

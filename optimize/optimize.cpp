@@ -9,8 +9,11 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <tuple>
 
+#include "solid/formats/checksum.h"
 #include "solid/formats/dataset.h"
+#include "solid/formats/files.h"
 #include "solid/formats/rle.h"
 #include "solid/formats/shard.h"
 #include "solid/render/sample.h"
@@ -171,8 +174,8 @@ struct Search {
   // of the point, so measuring it again would learn nothing: Gauss-Newton steps back to
   // where it was, or differences again at a point after rejected steps.
   std::map<std::vector<double>, ProxyMetrics> measured;
-  double evaluation_seconds = 0;
-  int64_t evaluated_layouts = 0;
+  double evaluation_seconds = 0, confirmation_seconds = 0;
+  int64_t evaluated_layouts = 0, confirmed_layouts = 0;
   // Gauss-Newton's Jacobian where the previous round left it. The next round's common seeds
   // move the residuals by about a constant, not their slopes, so it starts from this one
   // instead of spending an evaluation per dimension.
@@ -189,12 +192,19 @@ struct Search {
     return u;
   }
   // What the search may still start: the budget less the time that one more evaluation
-  // and confirming the best point on the fresh layouts will take at the rate measured so
-  // far, so that max_seconds bounds the search and its confirmation together.
+  // and confirming the best point on the fresh layouts will take at the rates measured so
+  // far, so that max_seconds bounds the search and its confirmation together. Until a
+  // confirmation has run, its layouts (at the output resolution) are taken to cost the
+  // evaluations' rate times the pixel ratio: an upper bound, since placement does not
+  // scale with pixels.
   double SecondsLeft() const {
     const double per_layout = evaluated_layouts > 0 ? evaluation_seconds / static_cast<double>(evaluated_layouts) : 0;
-    return options.max_seconds - SecondsSince(start) -
-           per_layout * static_cast<double>(layouts + options.confirm_layouts);
+    const double pixel_ratio = static_cast<double>(options.start.width) * options.start.height /
+                               (static_cast<double>(report.eval_width) * report.eval_height);
+    const double per_confirmed = confirmed_layouts > 0 ? confirmation_seconds / static_cast<double>(confirmed_layouts)
+                                                       : per_layout * pixel_ratio;
+    return options.max_seconds - SecondsSince(start) - per_layout * static_cast<double>(layouts) -
+           per_confirmed * static_cast<double>(options.confirm_layouts);
   }
   bool OutOfBudget() const { return report.evaluations >= options.max_evaluations || SecondsLeft() <= 0; }
   // Why the search stopped: the targets, a budget, or else `otherwise` (the method's own reason).
@@ -207,6 +217,11 @@ struct Search {
 
   EvaluationOptions Eval(int64_t first, int64_t n) const {
     return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs, options.cancel};
+  }
+  // Fresh layouts at the output resolution: what the confirmation measures, so that what it
+  // reports is what a render of these params will show.
+  EvaluationOptions Confirm() const {
+    return {options.seed, kConfirmFirst, options.confirm_layouts, 0, 0, options.jobs, options.cancel};
   }
 
   // One evaluation on the common seeds; `exact` evaluates those params as given (the start
@@ -449,6 +464,13 @@ std::string_view MetricName(Metric metric) {
   return "?";
 }
 
+std::optional<Metric> MetricByName(std::string_view name) {
+  for (Metric metric : kMetrics) {
+    if (MetricName(metric) == name) return metric;
+  }
+  return std::nullopt;
+}
+
 Estimate MetricOf(const ProxyMetrics& m, Metric metric) {
   switch (metric) {
     case Metric::kObjectsPerImage: return m.objects_per_image;
@@ -492,8 +514,8 @@ double Objective(const ProxyMetrics& metrics, const std::vector<Target>& targets
 }
 
 void DefaultEvaluationResolution(const LayoutParams& params, int* width, int* height) {
-  *width = std::max(16, params.width * 2 / 3);
-  *height = std::max(16, params.height * 2 / 3);
+  *width = std::max(16, params.width / 2);
+  *height = std::max(16, params.height / 2);
 }
 
 Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::AssetLibrary> library,
@@ -503,15 +525,16 @@ Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::
   LayoutParams at = params;
   if (options.width > 0) at.width = options.width;
   if (options.height > 0) at.height = options.height;
-  const double area_scale = static_cast<double>(params.width) * params.height / (static_cast<double>(at.width) * at.height);
-  at.min_visible_pixels = std::max(1, static_cast<int>(std::lround(params.min_visible_pixels / area_scale)));
+  std::tie(at.scale_width, at.scale_height) = render::ScaleClassResolution(params);
+  const double pixel_ratio = static_cast<double>(params.width) * params.height / (static_cast<double>(at.width) * at.height);
+  at.min_visible_pixels = std::max(1, static_cast<int>(std::lround(params.min_visible_pixels / pixel_ratio)));
   SOLID_ASSIGN_OR_RETURN(std::unique_ptr<render::LayoutSampler> sampler, render::LayoutSampler::Create(at, library));
   render::SampleOptions sample;
   sample.seed = options.seed;
   sample.first = options.first;
   sample.layouts = options.layouts;
   sample.jobs = options.jobs;
-  sample.area_scale = area_scale;
+  sample.metrics_only = true;
   sample.cancel = options.cancel;
   SOLID_ASSIGN_OR_RETURN(const render::SampleReport report, render::RunSample(*sampler, sample));
   Evaluation e;
@@ -586,7 +609,9 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
                                     : s.Minimize(local, options.algorithm, budget, step_scale));
         }
       }
-      SOLID_ASSIGN_OR_RETURN(confirmation, Evaluate(r.best, library, s.Eval(kConfirmFirst, options.confirm_layouts)));
+      SOLID_ASSIGN_OR_RETURN(confirmation, Evaluate(r.best, library, s.Confirm()));
+      s.confirmation_seconds += confirmation.seconds;
+      s.confirmed_layouts += options.confirm_layouts;
       if (Within(confirmation.metrics, options.targets, 1.0) || s.OutOfBudget()) break;
     }
     return Status::Ok();
@@ -708,10 +733,67 @@ std::string TraceText(const OptimizeReport& report, const std::filesystem::path&
   return text;
 }
 
+std::filesystem::path FitFiles::Record() const {
+  std::filesystem::path record = params;
+  record.replace_extension(".fit.json");
+  return record;
+}
+
+uint64_t FitFingerprint(const OptimizeOptions& o, uint64_t catalog_hash) {
+  nlohmann::json dims = nlohmann::json::array();
+  if (Result<std::vector<Dimension>> d = o.space.Dimensions(o.start); d.ok()) {
+    for (const Dimension& dim : *d) dims.push_back({dim.name, dim.lo, dim.hi, dim.step});
+  }
+  nlohmann::json targets = nlohmann::json::array();
+  for (const Target& t : o.targets) targets.push_back({MetricName(t.metric), t.value, t.tolerance});
+  const nlohmann::json identity = {
+      {"solid", SOLID_VERSION},
+      {"catalog_hash", Hex64(catalog_hash)},
+      {"start", render::ParamsToJson(o.start)},
+      {"dimensions", dims},
+      {"targets", targets},
+      {"options",
+       {o.algorithm, o.global_algorithm, o.global_evaluations, Hex64(o.seed), o.layouts, o.eval_width, o.eval_height,
+        o.confirm_layouts, o.pilot_layouts, o.max_evaluations, o.max_seconds, o.search_margin, o.max_rounds}}};
+  return Xxh64(identity.dump());
+}
+
+Status WriteFit(const OptimizeReport& report, const FitFiles& files, uint64_t fingerprint, std::string_view comment) {
+  nlohmann::json params = render::ParamsToJson(report.best);
+  params["$comment"] = std::string(comment);
+  const std::string text = params.dump(2) + "\n";
+  const std::string trace = files.trace.empty() ? std::string() : TraceText(report, files.trace);
+  const std::string record =
+      nlohmann::json{{"fingerprint", Hex64(fingerprint)}, {"params_xxh64", Hex64(Xxh64(text))}, {"summary", report.ToJson()}}
+          .dump(1) +
+      "\n";
+  auto bytes = [](const std::string& t) { return std::span(reinterpret_cast<const uint8_t*>(t.data()), t.size()); };
+  // The trace first: should a rename fail between them, the params file is the old one;
+  // the record last, so that it never vouches for params that were not written.
+  std::vector<files::FileContent> outputs;
+  if (!files.trace.empty()) outputs.push_back({files.trace, bytes(trace)});
+  outputs.push_back({files.params, bytes(text)});
+  if (!report.cancelled) outputs.push_back({files.Record(), bytes(record)});
+  return files::WriteFilesAtomically(outputs);
+}
+
+std::optional<nlohmann::json> ReusableFit(const FitFiles& files, uint64_t fingerprint) {
+  constexpr uint64_t kMaxRecordBytes = 64 << 20;
+  Result<std::vector<uint8_t>> record_bytes = files::ReadFile(files.Record(), kMaxRecordBytes);
+  Result<std::vector<uint8_t>> params_bytes = files::ReadFile(files.params, kMaxRecordBytes);
+  if (!record_bytes.ok() || !params_bytes.ok()) return std::nullopt;
+  const nlohmann::json record = nlohmann::json::parse(record_bytes->begin(), record_bytes->end(), nullptr, false);
+  if (!record.is_object() || record.value("fingerprint", "") != Hex64(fingerprint) ||
+      record.value("params_xxh64", "") != Hex64(Xxh64(*params_bytes)) || !record.contains("summary")) {
+    return std::nullopt;
+  }
+  return record["summary"];
+}
+
 Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root) {
   SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(dataset_root));
   SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(dataset_root));
-  MetricsAccumulator metrics;
+  MetricsAccumulator metrics(manifest.ScaleClassAreaScale());
   for (const ShardFile& file : listing.targets) {
     SOLID_ASSIGN_OR_RETURN(ShardReader shard, ShardReader::Open(file.path));
     SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, shard.ImageIds());
@@ -739,7 +821,7 @@ std::vector<Comparison> CompareWithTargets(const ProxyMetrics& measured, const s
   std::vector<Comparison> out;
   for (const Target& t : targets) {
     const Estimate m = MetricOf(measured, t.metric);
-    out.push_back({t.metric, m, {t.value, 0}, t.tolerance, std::abs(m.mean - t.value) <= t.tolerance});
+    out.push_back({t.metric, m, {t.value, 0}, t.tolerance, std::abs(m.mean - t.value) <= t.tolerance + m.ci95});
   }
   return out;
 }

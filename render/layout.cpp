@@ -145,6 +145,7 @@ class Placer {
     }
     const double zhalf = std::fabs(rotation(2, 0)) * half.x + std::fabs(rotation(2, 1)) * half.y +
                          std::fabs(rotation(2, 2)) * half.z;
+    if (occlude) ProjectPlaced(placed);
     for (int attempt = 0; attempt < p_.max_proposals; ++attempt) {
       ++*proposals;
       int i = 0, j = 0, k = 0;
@@ -179,7 +180,7 @@ class Placer {
       }
       if (!(std::hypot(c.x - eye_.x, c.y - eye_.y) > p_.min_hdist_m)) continue;
       if (cluster && !NearSome(c, balls)) continue;
-      if (occlude && !Occludes(c, placed)) continue;
+      if (occlude && !Occludes(c, u, v, placed)) continue;
       if (depth_by_size && !InDepthBand(c, size_m, placed)) continue;
       const Obb box{c, rotation, half};
       if (!room_.InsideValidVolume(box)) continue;
@@ -206,8 +207,41 @@ class Placer {
     return false;
   }
 
-  bool Occludes(Vec3 c, const std::vector<PlacedObject>& placed) const {
-    for (const PlacedObject& o : placed) {
+  // The image box of each placed object whose corners all lie beyond the near plane, once
+  // per pose try: the occlusion tests of its thousands of proposals then skip most objects
+  // at the cost of a comparison (see Occludes).
+  struct ImageBox {
+    bool valid = false;
+    double u0 = 0, u1 = 0, v0 = 0, v1 = 0;
+  };
+  void ProjectPlaced(const std::vector<PlacedObject>& placed) {
+    image_boxes_.assign(placed.size(), {});
+    for (size_t i = 0; i < placed.size(); ++i) {
+      ImageBox b{true, 1e300, -1e300, 1e300, -1e300};
+      for (int k = 0; k < 8 && b.valid; ++k) {
+        double cu = 0, cv = 0;
+        b.valid = Project(camera_, placed[i].box.Corner(k), p_.camera_near_m, &cu, &cv);
+        b.u0 = std::min(b.u0, cu);
+        b.u1 = std::max(b.u1, cu);
+        b.v0 = std::min(b.v0, cv);
+        b.v1 = std::max(b.v1, cv);
+      }
+      image_boxes_[i] = b;
+    }
+  }
+
+  // (u, v): c's projection. An object beyond the near plane lies in the convex hull of its
+  // corners, which projects inside their image box; so when (u, v) is outside it (by more
+  // than rounding: kSlackPx), no point of the ray through c in front of the camera meets
+  // the object, and both tests below are false for it: skipping it changes no result.
+  bool Occludes(Vec3 c, double u, double v, const std::vector<PlacedObject>& placed) const {
+    constexpr double kSlackPx = 1e-6;
+    for (size_t i = 0; i < placed.size(); ++i) {
+      const PlacedObject& o = placed[i];
+      const ImageBox& b = image_boxes_[i];
+      if (b.valid && (u < b.u0 - kSlackPx || u > b.u1 + kSlackPx || v < b.v0 - kSlackPx || v > b.v1 + kSlackPx)) {
+        continue;
+      }
       if (p_.occlusion_test == OcclusionTest::kRayObb) {
         // The half-line from the camera through c, t > 0; c is at t = 1.
         double t0 = 0, t1 = 0;
@@ -260,6 +294,7 @@ class Placer {
   const Camera& camera_;
   Vec3 eye_;
   int k_max_ = 0;
+  std::vector<ImageBox> image_boxes_;  // of `placed`, for the pose try in progress
 };
 
 // Camera draws (solid-method.md 2.3, D9): a floor-covered lattice column in the ring,

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <mutex>
 
 #include <fmt/format.h>
 
@@ -30,7 +31,12 @@ struct CrossingContext {
   uint32_t pixel[kLanes] = {};
   float nearest_t[kLanes] = {};
   uint32_t nearest[kLanes] = {};
-  uint8_t* const* full = nullptr;  // per object: its full mask, row-major
+  uint8_t* const* full = nullptr;  // full pass: per object, its full mask, row-major
+  // Metrics-only pass: a ray crosses an object once per surface, so each (lane, object)
+  // remembers the pixel it last counted (+ 1) and full_counts[object] counts pixels.
+  uint32_t* counted = nullptr;  // kLanes x objects
+  uint64_t* full_counts = nullptr;
+  size_t objects = 0;
 };
 
 void RecordCrossings(const RTCFilterFunctionNArguments* args) {
@@ -46,7 +52,12 @@ void RecordCrossings(const RTCFilterFunctionNArguments* args) {
       ctx->nearest_t[i] = t;
       ctx->nearest[i] = object;
     }
-    ctx->full[object][ctx->pixel[i]] = 1;
+    if (ctx->full != nullptr) {
+      ctx->full[object][ctx->pixel[i]] = 1;
+    } else if (uint32_t& last = ctx->counted[i * ctx->objects + object]; last != ctx->pixel[i] + 1) {
+      last = ctx->pixel[i] + 1;
+      ++ctx->full_counts[object];
+    }
     args->valid[i] = 0;  // reject: traversal goes on to farther surfaces
   }
 }
@@ -121,15 +132,23 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
   const int w = layout.width, h = layout.height;
   const size_t pixels = static_cast<size_t>(w) * h;
   const size_t objects = layout.objects.size();
+  const bool masks = !options.metrics_only;
   MaskPassResult out;
   out.width = w;
   out.height = h;
-  out.ids.assign(pixels, 0);
-  out.depth.assign(pixels, kInfinity);
   // Every full mask in one zeroed block: one allocation per layout, not one copy per object.
-  std::vector<uint8_t> full(objects * pixels, 0);
-  std::vector<uint8_t*> full_rows(objects);
-  for (size_t k = 0; k < objects; ++k) full_rows[k] = full.data() + k * pixels;
+  std::vector<uint8_t> full;
+  std::vector<uint8_t*> full_rows;
+  if (masks) {
+    out.ids.assign(pixels, 0);
+    out.depth.assign(pixels, kInfinity);
+    full.assign(objects * pixels, 0);
+    full_rows.resize(objects);
+    for (size_t k = 0; k < objects; ++k) full_rows[k] = full.data() + k * pixels;
+  }
+  // Metrics-only: pixel counts, summed over the threads.
+  std::vector<uint64_t> visible_counts(masks ? 0 : objects, 0), full_counts(masks ? 0 : objects, 0);
+  std::mutex counts_mutex;
 
   const ObjectScene object_scene(layout.room->device()->handle(), layout);
   RTCScene room = reinterpret_cast<RTCScene>(layout.room->scene());
@@ -147,7 +166,18 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
     rtcInitIntersectContext(&ctx.base);
     ctx.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     ctx.base.filter = RecordCrossings;
-    ctx.full = full_rows.data();
+    std::vector<uint32_t> counted;
+    std::vector<uint64_t> thread_visible, thread_full;
+    if (masks) {
+      ctx.full = full_rows.data();
+    } else {
+      counted.assign(kLanes * objects, 0);
+      thread_visible.assign(objects, 0);
+      thread_full.assign(objects, 0);
+      ctx.counted = counted.data();
+      ctx.full_counts = thread_full.data();
+      ctx.objects = objects;
+    }
     RTCIntersectContext room_ctx;
     rtcInitIntersectContext(&room_ctx);
     room_ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
@@ -175,8 +205,13 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
           const uint32_t pixel = ctx.pixel[i];
           const float room_t =
               room_rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? room_rays.ray.tfar[i] : kInfinity;
+          const bool object_nearest = ctx.nearest[i] != RTC_INVALID_GEOMETRY_ID && ctx.nearest_t[i] < room_t;
+          if (!masks) {
+            if (object_nearest) ++thread_visible[ctx.nearest[i]];
+            continue;
+          }
           float nearest_t = room_t;
-          if (ctx.nearest[i] != RTC_INVALID_GEOMETRY_ID && ctx.nearest_t[i] < room_t) {
+          if (object_nearest) {
             out.ids[pixel] = ctx.nearest[i] + 1;
             nearest_t = ctx.nearest_t[i];
           }
@@ -184,11 +219,22 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
         }
       }
     }
+    if (!masks) {
+      std::lock_guard lock(counts_mutex);
+      for (size_t k = 0; k < objects; ++k) {
+        visible_counts[k] += thread_visible[k];
+        full_counts[k] += thread_full[k];
+      }
+    }
   };
   RunOnThreads(std::clamp(options.threads, 1, std::max(1, tile_rows)), trace_tile_rows);
 
-  const std::vector<rle::IdRle> visible = rle::EncodeIdImageRowMajor(out.ids, h, w);
-  const rle::Rle empty = rle::EncodeRowMajor(std::vector<uint8_t>(pixels, 0), h, w);
+  std::vector<rle::IdRle> visible;
+  rle::Rle empty;
+  if (masks) {
+    visible = rle::EncodeIdImageRowMajor(out.ids, h, w);
+    empty = rle::EncodeRowMajor(std::vector<uint8_t>(pixels, 0), h, w);
+  }
   out.instances.resize(objects);
   for (size_t k = 0; k < objects; ++k) {
     const PlacedObject& o = layout.objects[k];
@@ -196,19 +242,23 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
     r.image_id = layout.index;
     r.ordinal = static_cast<int32_t>(k);
     r.model_key = o.model_key;
-    const auto it = std::lower_bound(visible.begin(), visible.end(), static_cast<uint32_t>(k + 1),
-                                     [](const rle::IdRle& e, uint32_t id) { return e.id < id; });
-    const rle::Rle& vis = it != visible.end() && it->id == k + 1 ? it->rle : empty;
-    const rle::Rle full_rle = rle::EncodeRowMajor({full_rows[k], pixels}, h, w);
-    SOLID_RETURN_IF_ERROR(SetInstanceMasks(vis, full_rle, &r).WithContext(
-        fmt::format("layout {} object {} ({})", layout.index, k, o.model_key)));
+    if (masks) {
+      const auto it = std::lower_bound(visible.begin(), visible.end(), static_cast<uint32_t>(k + 1),
+                                       [](const rle::IdRle& e, uint32_t id) { return e.id < id; });
+      const rle::Rle& vis = it != visible.end() && it->id == k + 1 ? it->rle : empty;
+      const rle::Rle full_rle = rle::EncodeRowMajor({full_rows[k], pixels}, h, w);
+      SOLID_RETURN_IF_ERROR(SetInstanceMasks(vis, full_rle, &r, options.area_scale).WithContext(
+          fmt::format("layout {} object {} ({})", layout.index, k, o.model_key)));
+      r.truncation = Truncation(layout, o);
+    } else {
+      SetInstanceAreas(visible_counts[k], full_counts[k], &r, options.area_scale);
+    }
     r.world_from_object = o.WorldFromObject();
     r.object_scale = o.size_m;
     r.camera_distance = Length(eye - o.position);
     const Vec3 view = o.rotation.Transposed() * (eye - o.position);
     r.view_azimuth = std::atan2(view.y, view.x);
     r.view_elevation = std::atan2(view.z, std::hypot(view.x, view.y));
-    r.truncation = Truncation(layout, o);
     if (r.visible_area >= static_cast<uint64_t>(std::max(1, min_visible_pixels))) ++out.visible_objects;
   }
   return out;

@@ -7,6 +7,7 @@
 #include <mutex>
 #include <numbers>
 #include <thread>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -29,8 +30,9 @@ struct LayoutSummary {
 }  // namespace
 
 Result<GeneratedLayout> GenerateLayout(const LayoutSampler& sampler, uint64_t dataset_seed, int64_t index,
-                                       const MaskPassOptions& options) {
+                                       MaskPassOptions options) {
   const LayoutParams& p = sampler.params();
+  options.area_scale = ScaleClassAreaScale(p, p.width, p.height);
   GeneratedLayout g;
   std::vector<std::string> reasons;
   for (int restart = 0; restart <= p.max_scene_restarts; ++restart) {
@@ -74,7 +76,6 @@ void ViewpointHistogram::Add(double azimuth, double elevation) {
 
 Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions& options) {
   if (options.layouts < 0 || options.first < 0) return InvalidArgumentError("layouts and first must be >= 0");
-  if (!(options.area_scale > 0)) return InvalidArgumentError("area_scale must be > 0");
   const auto start = std::chrono::steady_clock::now();
   const int64_t n = options.layouts;
   std::vector<LayoutSummary> summaries(static_cast<size_t>(n));
@@ -90,7 +91,9 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
       }
       if (CancelRequested(options.cancel)) return;
       LayoutSummary& s = summaries[static_cast<size_t>(i)];
-      Result<GeneratedLayout> g = GenerateLayout(sampler, options.seed, options.first + i);
+      MaskPassOptions mask_options;
+      mask_options.metrics_only = options.metrics_only;
+      Result<GeneratedLayout> g = GenerateLayout(sampler, options.seed, options.first + i, mask_options);
       if (!g.ok()) {
         if (g.status().code() != StatusCode::kLimitExceeded) {
           std::lock_guard lock(error_mutex);
@@ -142,7 +145,9 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
   }
 
   SampleReport report;
-  MetricsAccumulator metrics(options.area_scale);
+  const LayoutParams& params = sampler.params();
+  MetricsAccumulator metrics(ScaleClassAreaScale(params, params.width, params.height));
+  std::tie(report.scale_width, report.scale_height) = ScaleClassResolution(params);
   double truncation_sum = 0, truncation_sq = 0;
   int64_t truncation_n = 0;
   double sample_ms = 0, mask_ms = 0, attempts = 0, placed = 0, proposals = 0;
@@ -187,6 +192,7 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
 
 nlohmann::json SampleReport::ToJson() const {
   nlohmann::json j = metrics.ToJson();
+  j["scale_classes_at"] = {scale_width, scale_height};
   j["truncation"] = {{"mean", truncation.mean}, {"ci95", truncation.ci95}};
   j["viewpoints"] = {{"azimuth_bins", viewpoints.azimuth_bins},
                      {"elevation_bins", viewpoints.elevation_bins},

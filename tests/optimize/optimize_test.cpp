@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "fixtures/background_process.h"
 #include "fixtures/layered_dataset.h"
@@ -60,7 +61,9 @@ TEST(Evaluate, IsDeterministicForFixedSeedsAndAnyJobs) {
 TEST(Evaluate, ClassesScaleAgainstTheOutputResolution) {
   // At 80x60 for a 320x240 output, an area of a is classed as 16 a: the shares match
   // those at 320x240 far better than unscaled thresholds would (every object small).
-  const render::LayoutParams p = Preset("more-objects");
+  render::LayoutParams p = Preset("more-objects");
+  p.width = 320;
+  p.height = 240;
   Result<Evaluation> low = Evaluate(p, render::testing::ProceduralLibrary(), Small(60));
   EvaluationOptions full = Small(60);
   full.width = full.height = 0;
@@ -76,8 +79,14 @@ Result<SearchSpace> ParseSpace(const std::string& text) {
   return SearchSpace::Parse(doc, text, "space.json");
 }
 
-OptimizeOptions Reduced(const render::LayoutParams& start) {
+// The presets' 640x480 output rendered at 160x120 with scale classes counted as at 640x480
+// (render.scale_classes_at), masks at 80x60: the confirmation, at the output resolution,
+// stays cheap under the sanitizers.
+OptimizeOptions Reduced(render::LayoutParams start) {
   OptimizeOptions o;
+  std::tie(start.scale_width, start.scale_height) = render::ScaleClassResolution(start);
+  start.width = 160;
+  start.height = 120;
   o.start = start;
   o.space = SearchSpace::FitKnobs(start);
   o.layouts = 40;
@@ -143,14 +152,13 @@ TEST_P(OptimizeWith, RecoversAReachablePointFromRandomPlacement) {
 }
 
 // The test, reduced: from random-placement's structure (white cube, floor, one
-// uniform size law, rotation about z) to the more-objects row of Table 1, with the output
-// at 640x480 (README, "Why 640x480"), masks at 160x120, 40 layouts per evaluation and
-// tolerances 4x the acceptance. The full size is bench/optimize_table1 --start.
+// uniform size law, rotation about z) to the more-objects row of Table 1, scale classes
+// at 640x480 (solid-method.md 4.2), the output at 320x240, masks at 160x120, 40 layouts per
+// evaluation and tolerances 4x the acceptance. The full size is bench/optimize_table1 --start.
 TEST(Optimize, ReachesTheMoreObjectsRowFromRandomPlacement) {
-  render::LayoutParams start = Preset("random-placement");
-  start.width = 640;
-  start.height = 480;
-  OptimizeOptions o = Reduced(start);
+  OptimizeOptions o = Reduced(Preset("random-placement"));
+  o.start.width = 320;
+  o.start.height = 240;
   o.eval_width = 160;
   o.eval_height = 120;
   Result<std::vector<Target>> targets = TableRowTargets("more-objects");
@@ -257,7 +265,7 @@ TEST(Optimize, LaterRoundSearchesForTheTargetsShiftedByTheConfirmation) {
   // The point the second round starts from, confirmed as Optimize does after round one.
   Result<render::LayoutParams> point = o.space.Decode(o.start, second->x);
   ASSERT_OK(point.status());
-  const EvaluationOptions confirm{o.seed, kConfirmFirst, o.confirm_layouts, r->eval_width, r->eval_height, 2};
+  const EvaluationOptions confirm{o.seed, kConfirmFirst, o.confirm_layouts, 0, 0, 2};  // the output resolution
   Result<Evaluation> confirmed = Evaluate(*point, render::testing::ProceduralLibrary(), confirm);
   ASSERT_OK(confirmed.status());
   const double fresh = confirmed->metrics.objects_per_image.mean, common = second->metrics.objects_per_image.mean;
@@ -356,6 +364,57 @@ TEST(OptimizeCli, SigtermWritesTheBestPointSoFarAndTheTrace) {
   const auto rows = std::count(text->begin(), text->end(), '\n') - 1;  // less the header
   EXPECT_GE(rows, 2);
   EXPECT_THAT(std::string(text->begin(), text->end()), HasSubstr("\n1,0,start,"));
+}
+
+// A rerun of the main job reuses a fit only while everything it depends on is unchanged,
+// and only the params file that fit wrote.
+TEST(FitRecord, ReusedOnlyForTheSameFingerprintAndUneditedParams) {
+  OptimizeOptions o = Reduced(Preset("more-objects"));
+  o.layouts = 10;
+  o.confirm_layouts = 20;
+  o.max_evaluations = 3;
+  o.targets = {{Metric::kObjectsPerImage, 10, 0.25}};
+  Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+  ASSERT_OK(r.status());
+  solid::testing::TempDir dir;
+  const FitFiles files{dir.path() / "fitted.json", dir.path() / "trace.csv"};
+  EXPECT_EQ(files.Record(), dir.path() / "fitted.fit.json");
+  const uint64_t catalog = render::testing::ProceduralLibrary()->catalog_hash();
+  const uint64_t fingerprint = FitFingerprint(o, catalog);
+  EXPECT_FALSE(ReusableFit(files, fingerprint).has_value()) << "nothing written yet";
+  ASSERT_OK(WriteFit(*r, files, fingerprint, "test fit"));
+  Result<render::LayoutParams> written = render::LoadParamsFile(files.params);
+  ASSERT_OK(written.status());
+  EXPECT_EQ(*written, r->best);
+  const std::optional<nlohmann::json> reused = ReusableFit(files, fingerprint);
+  ASSERT_TRUE(reused.has_value());
+  EXPECT_EQ((*reused)["evaluations"], r->evaluations);
+  EXPECT_EQ((*reused)["all_met"], r->all_met);
+
+  // Each of these changes what the fit would find.
+  OptimizeOptions other_target = o, other_seed = o, other_start = o, other_layouts = o;
+  other_target.targets[0].value = 11;
+  other_seed.seed = 2;
+  other_start.start.camera_ring_m.hi = 5.5;
+  other_layouts.layouts = 11;
+  for (const OptimizeOptions* changed : {&other_target, &other_seed, &other_start, &other_layouts}) {
+    EXPECT_NE(FitFingerprint(*changed, catalog), fingerprint);
+  }
+  EXPECT_NE(FitFingerprint(o, catalog + 1), fingerprint) << "other assets";
+  OptimizeOptions more_jobs = o;
+  more_jobs.jobs = 1;
+  EXPECT_EQ(FitFingerprint(more_jobs, catalog), fingerprint) << "jobs change no result";
+
+  // An edited params file is not the fit's any more.
+  std::string text;
+  {
+    Result<std::vector<uint8_t>> bytes = files::ReadFile(files.params, 1 << 20);
+    ASSERT_OK(bytes.status());
+    text.assign(bytes->begin(), bytes->end());
+  }
+  ASSERT_OK(files::WriteFileAtomically(files.params, std::span(reinterpret_cast<const uint8_t*>(text.data()),
+                                                               text.size() - 1)));
+  EXPECT_FALSE(ReusableFit(files, fingerprint).has_value());
 }
 
 TEST(DatasetMetrics, MatchTheStoredAreas) {

@@ -6,8 +6,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "render/test_assets.h"
 #include "solid/formats/rle.h"
 #include "solid/render/mask_pass.h"
+#include "solid/render/sample.h"
 
 namespace solid::render {
 namespace {
@@ -188,6 +190,43 @@ TEST(MaskPass, ThreadCountDoesNotChangeAnything) {
     EXPECT_EQ(one.instances[k].visible_rle, three.instances[k].visible_rle);
     EXPECT_EQ(one.instances[k].full_rle, three.instances[k].full_rle);
   }
+}
+
+// The optimizer's metrics-only pass counts what the full pass paints: every area (and so
+// occlusion and scale class) equal, on layouts with many overlapping objects, for any
+// thread count.
+TEST(MaskPass, MetricsOnlyCountsExactlyTheAreasOfTheFullPass) {
+  LayoutParams params = LoadPreset("more-objects").value();
+  params.width = 160;
+  params.height = 120;
+  params.scale_width = 640;
+  params.scale_height = 480;
+  const auto sampler = LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
+  int64_t compared = 0;
+  for (int64_t index = 0; index < 6; ++index) {
+    SCOPED_TRACE(index);
+    const GeneratedLayout full = GenerateLayout(*sampler, 3, index, {}).value();
+    for (int threads : {1, 2}) {
+      MaskPassOptions options;
+      options.threads = threads;
+      options.metrics_only = true;
+      const GeneratedLayout counted = GenerateLayout(*sampler, 3, index, options).value();
+      EXPECT_TRUE(counted.masks.ids.empty());
+      EXPECT_TRUE(counted.masks.depth.empty());
+      EXPECT_EQ(counted.masks.visible_objects, full.masks.visible_objects);
+      ASSERT_EQ(counted.masks.instances.size(), full.masks.instances.size());
+      for (size_t k = 0; k < full.masks.instances.size(); ++k) {
+        const InstanceRecord &a = full.masks.instances[k], &b = counted.masks.instances[k];
+        EXPECT_EQ(b.visible_area, a.visible_area) << k;
+        EXPECT_EQ(b.full_area, a.full_area) << k;
+        EXPECT_EQ(b.occlusion, a.occlusion) << k;
+        EXPECT_EQ(b.scale_class, a.scale_class) << k;
+        EXPECT_TRUE(b.visible_rle.empty() && b.full_rle.empty());
+        compared += a.full_area > 0;
+      }
+    }
+  }
+  EXPECT_GT(compared, 50) << "the layouts should hold many objects in view";
 }
 
 }  // namespace

@@ -40,6 +40,7 @@ inline constexpr int64_t kPilotFirst = int64_t{1} << 41;
 enum class Metric { kObjectsPerImage, kOcclusion, kSmall, kMedium, kLarge };
 // "objects_per_image", "occlusion", "small", "medium", "large".
 std::string_view MetricName(Metric metric);
+std::optional<Metric> MetricByName(std::string_view name);
 Estimate MetricOf(const ProxyMetrics& metrics, Metric metric);
 
 // The acceptance of solid-method.md 4.3: count +-0.25, occlusion +-1.5 points, each
@@ -81,9 +82,10 @@ struct Evaluation {
 Result<Evaluation> Evaluate(const render::LayoutParams& params, std::shared_ptr<render::AssetLibrary> library,
                             const EvaluationOptions& options);
 
-// The evaluation resolution used when none is given: two thirds of the output's width and
-// height (213x160 for 320x240), where the object count matches the output's and a mask
-// pass costs about a third.
+// The evaluation resolution used when none is given: half the output's width and height
+// (320x240 for 640x480). Halving scales every projection by exactly 2 in floating point,
+// so the layouts are the output's, bit for bit (the frustum and clearance tests compare
+// pixel coordinates); only the pixel counts differ, and a mask pass costs about a quarter.
 void DefaultEvaluationResolution(const render::LayoutParams& params, int* width, int* height);
 
 struct TraceRow {
@@ -139,7 +141,7 @@ struct OptimizeOptions {
 
 struct TargetResult {
   Target target;
-  Estimate predicted;  // on the fresh seeds at the evaluation resolution
+  Estimate predicted;  // on the fresh seeds at the output resolution (the confirmation)
   bool met = false;    // |predicted - target| <= tolerance
   // The last round searched for target - search_offset on the common seeds: from the
   // second round on, the confirmation's difference from them at the round's start.
@@ -158,7 +160,7 @@ struct OptimizeReport {
   std::vector<TargetResult> results;
   bool all_met = false;
   ProxyMetrics search_metrics;  // of the best point on the common seeds
-  ProxyMetrics confirmation;    // fresh seeds, evaluation resolution
+  ProxyMetrics confirmation;    // fresh seeds, output resolution
   std::optional<ProxyMetrics> pilot;
   int eval_width = 0, eval_height = 0;
   int evaluations = 0, rounds = 0;
@@ -178,6 +180,33 @@ struct OptimizeReport {
 // blocked_by.
 Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, const OptimizeOptions& options);
 
+// A fit's outputs: the params file, optionally the trace, and beside the params the fit
+// record `<stem>.fit.json` ({"fingerprint", "params_xxh64", "summary": OptimizeReport::ToJson}),
+// by which a rerun recognises a fit it has done.
+struct FitFiles {
+  std::filesystem::path params;
+  std::filesystem::path trace;  // empty: none
+  std::filesystem::path Record() const;
+};
+
+// What a fit's result depends on, hashed: the asset catalogs (`catalog_hash`), the start,
+// the space's dimensions, the targets, and every option that steers the search (algorithm,
+// global phase, seed, layouts, evaluation resolution, confirmation, pilot, budgets, margin,
+// rounds). Not jobs, on_evaluation or cancel: results are the same for any of them.
+uint64_t FitFingerprint(const OptimizeOptions& options, uint64_t catalog_hash);
+
+// Writes the params (with a $comment saying how they were found), the trace and the fit
+// record, each atomically, the params file last but the record (so that a record never
+// describes params that are not there). A cancelled report writes no record: its best
+// point is unconfirmed.
+Status WriteFit(const OptimizeReport& report, const FitFiles& files, uint64_t fingerprint,
+                std::string_view comment);
+
+// The summary of the fit recorded beside files.params when that fit had `fingerprint` and
+// the params file is still the one it wrote; nullopt otherwise (no record, another
+// fingerprint, params edited or missing).
+std::optional<nlohmann::json> ReusableFit(const FitFiles& files, uint64_t fingerprint);
+
 // The trace as CSV (for a path ending in .csv: one row per evaluation, metrics and every
 // dimension by name) or JSON (an array of objects).
 std::string TraceText(const OptimizeReport& report, const std::filesystem::path& path);
@@ -193,7 +222,10 @@ struct Comparison {
   double tolerance = 0;
   bool agrees = false;  // see the two functions below
 };
-// Against targets: agreement is |measured - target| <= tolerance (the acceptance).
+// Against targets: agreement is |measured - target| <= tolerance + measured.ci95: a finite
+// dataset meets a target when the target is within tolerance of its 95% confidence
+// interval (the acceptance over >= 2,000 images, where the CI is small, is the optimizer's
+// confirmation).
 std::vector<Comparison> CompareWithTargets(const ProxyMetrics& measured, const std::vector<Target>& targets);
 // Against a prediction (the metrics of sampled layouts): agreement is within the default
 // tolerance plus the 95% CI of the difference.

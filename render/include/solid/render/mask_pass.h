@@ -28,11 +28,21 @@ namespace solid::render {
 
 struct MaskPassOptions {
   int threads = 1;  // rows are split over this many threads
+  // Scale classes as at a resolution with this many times more pixels than the layout's
+  // (ScaleClassAreaScale; GenerateLayout sets it from the params).
+  double area_scale = 1;
+  // Only what the proxy metrics need (the optimizer's evaluations): each instance's
+  // visible and full areas, occlusion, scale class, pose and viewpoint, counted by the
+  // same rays as a full pass, so equal to its; no masks, boxes, depth, id image or
+  // truncation (0). The full masks are counted per ray instead of painted into an
+  // objects x pixels block and encoded.
+  bool metrics_only = false;
 };
 
 struct MaskPassResult {
   int width = 0, height = 0;
-  // Row-major, 0 where the room (or nothing) is nearest, k + 1 where object k is.
+  // Row-major, 0 where the room (or nothing) is nearest, k + 1 where object k is. Empty,
+  // as depth, after a metrics_only pass.
   std::vector<uint32_t> ids;
   // Row-major distance along the camera's -Z axis to the nearest surface, metres;
   // +infinity where the ray leaves the scene.

@@ -30,8 +30,10 @@ struct GeneratedLayout {
   double sample_ms = 0, mask_ms = 0;  // summed over restarts
 };
 // kLimitExceeded after params.max_scene_restarts + 1 unusable draws, with their reasons.
+// Scale classes are counted at the params' ScaleClassResolution (options.area_scale is
+// set from it).
 Result<GeneratedLayout> GenerateLayout(const LayoutSampler& sampler, uint64_t dataset_seed, int64_t index,
-                                       const MaskPassOptions& options = {});
+                                       MaskPassOptions options = {});
 
 // Camera directions in the objects' frames, visible instances only: azimuth in
 // `azimuth_bins` bins over [-180, 180) degrees, elevation in `elevation_bins` over
@@ -47,10 +49,9 @@ struct SampleOptions {
   int64_t first = 0;  // layouts first .. first + layouts - 1
   int64_t layouts = 100;
   int jobs = 0;       // layouts in parallel; 0: all cores
-  // Scale classes as at a resolution with `area_scale` times more pixels than the
-  // params' (MetricsAccumulator): the optimizer measures at a lower resolution than
-  // the dataset it aims for.
-  double area_scale = 1;
+  // The mask pass counts areas only (MaskPassOptions::metrics_only): the same metrics,
+  // truncation 0; what the optimizer's evaluations use.
+  bool metrics_only = false;
   ProgressCallback progress;
   // Stops between layouts (solid/formats/cancel.h): RunSample then returns kCancelled,
   // since metrics of the layouts done so far would depend on thread timing.
@@ -58,7 +59,11 @@ struct SampleOptions {
 };
 
 struct SampleReport {
-  ProxyMetrics metrics;  // over annotated instances (>= min_visible_pixels visible)
+  // Over annotated instances (>= min_visible_pixels visible); scale classes as at the
+  // params' ScaleClassResolution (the optimizer measures at a lower resolution than the
+  // dataset it aims for, with scale_classes_at set to the dataset's).
+  ProxyMetrics metrics;
+  int scale_width = 0, scale_height = 0;  // the params' ScaleClassResolution
   Estimate truncation;   // over visible instances
   ViewpointHistogram viewpoints;
   int64_t layouts = 0, failed_layouts = 0, restarts = 0;
