@@ -18,9 +18,9 @@
 // memory is 24 bytes per image, plus 16 bytes per annotation that comes before the `images`
 // array in the file (COCO files written by pycocotools and `solid export coco` put images
 // first), each in a vector that grows by doubling, plus the reader's 1 MiB buffer and one
-// token. Everything but the images'
-// `id`, `width`, `height` and the annotations' `image_id`, `area`, `iscrowd` (segmentations,
-// boxes, categories, info, licenses) is read past without being stored.
+// token. Everything but the images' `id`, `width`, `height` and the annotations'
+// `image_id`, `area`, `iscrowd` (segmentations, boxes, categories, info, licenses) is read
+// past without being stored.
 //
 // Thread safety: the functions share no state; calls may run concurrently.
 #pragma once
@@ -87,7 +87,8 @@ struct CocoMatch {
 //   missing or not arrays, or given twice); an image or annotation that is not an object,
 //   lacks `id`, `width` or `height` (images), `image_id` or, unless crowd, `area`
 //   (annotations), repeats one of them, or has one of the wrong type: ids must be
-//   integers, width and height integers >= 1, area a number >= 0, iscrowd 0, 1 or a boolean;
+//   integers, width and height integers >= 1 (a whole number written as 640.0 counts as an
+//   integer), area a number >= 0, iscrowd 0, 1 or a boolean;
 // - kCorrupt: two images with one id; an annotation whose image_id names no image; no
 //   annotations, or only crowd ones;
 // - kLimitExceeded: over one of options' limits;
