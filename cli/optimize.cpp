@@ -33,6 +33,10 @@ struct OptimizeFlags {
   bool refit = false;
 };
 
+std::string Percent(Metric m, double v) {
+  return m == Metric::kObjectsPerImage ? fmt::format("{:.2f}", v) : fmt::format("{:.1f}%", 100 * v);
+}
+
 // --target-row first, then --match-coco's count and shares, then the single targets
 // override or add. `start` gives the resolution the COCO areas are classed at.
 Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f, const render::LayoutParams& start) {
@@ -86,10 +90,6 @@ Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f, con
     return InvalidArgumentError("no target: give --target-row, --match-coco or --target-count/-occlusion/-scale");
   }
   return targets;
-}
-
-std::string Percent(Metric m, double v) {
-  return m == Metric::kObjectsPerImage ? fmt::format("{:.2f}", v) : fmt::format("{:.1f}%", 100 * v);
 }
 
 void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
@@ -336,8 +336,8 @@ Command AddOptimize(CLI::App& app) {
   cmd->add_option("--global-evals", o.global_evaluations, "Evaluations of the global phase (default: a third of --max-evals)");
   cmd->add_option("--layouts,-n", o.layouts, "Layouts per evaluation (common seeds; doubled each round)")
       ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{1000000}));
-  cmd->add_option("--eval-resolution", f->eval_resolution, "Mask resolution of evaluations (default: 2/3 of the output's)");
-  cmd->add_option("--confirm-layouts", o.confirm_layouts, "Fresh layouts that re-measure the best point")
+  cmd->add_option("--eval-resolution", f->eval_resolution, "Mask resolution of evaluations (default: a quarter of the output's width and height)");
+  cmd->add_option("--confirm-layouts", o.confirm_layouts, "Fresh layouts at the output resolution that re-measure the best point")
       ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{10000000}));
   cmd->add_option("--pilot", o.pilot_layouts, "Fresh layouts at the output resolution checked against the prediction")
       ->capture_default_str();

@@ -174,8 +174,8 @@ struct Search {
   // of the point, so measuring it again would learn nothing: Gauss-Newton steps back to
   // where it was, or differences again at a point after rejected steps.
   std::map<std::vector<double>, ProxyMetrics> measured;
-  double evaluation_seconds = 0, confirmation_seconds = 0;
-  int64_t evaluated_layouts = 0, confirmed_layouts = 0;
+  double evaluation_seconds = 0, output_seconds = 0;
+  int64_t evaluated_layouts = 0, output_layouts = 0;  // at the evaluation and at the output resolution
   // Gauss-Newton's Jacobian where the previous round left it. The next round's common seeds
   // move the residuals by about a constant, not their slopes, so it starts from this one
   // instead of spending an evaluation per dimension.
@@ -193,16 +193,13 @@ struct Search {
   }
   // What the search may still start: the budget less the time that one more evaluation
   // and confirming the best point on the fresh layouts will take at the rates measured so
-  // far, so that max_seconds bounds the search and its confirmation together. Until a
-  // confirmation has run, its layouts (at the output resolution) are taken to cost the
-  // evaluations' rate times the pixel ratio: an upper bound, since placement does not
-  // scale with pixels.
+  // far, so that max_seconds bounds the search and its confirmation together. Layouts at
+  // the output resolution have their own rate (the first round's "output" evaluation, then
+  // the confirmations); with evaluations at the output resolution, it is theirs.
   double SecondsLeft() const {
     const double per_layout = evaluated_layouts > 0 ? evaluation_seconds / static_cast<double>(evaluated_layouts) : 0;
-    const double pixel_ratio = static_cast<double>(options.start.width) * options.start.height /
-                               (static_cast<double>(report.eval_width) * report.eval_height);
-    const double per_confirmed = confirmed_layouts > 0 ? confirmation_seconds / static_cast<double>(confirmed_layouts)
-                                                       : per_layout * pixel_ratio;
+    const double per_confirmed =
+        output_layouts > 0 ? output_seconds / static_cast<double>(output_layouts) : per_layout;
     return options.max_seconds - SecondsSince(start) - per_layout * static_cast<double>(layouts) -
            per_confirmed * static_cast<double>(options.confirm_layouts);
   }
@@ -281,6 +278,21 @@ struct Search {
     }
     if (!exact) measured.emplace(unit, e->metrics);
     return Measured{objective, std::move(e->metrics)};
+  }
+
+  // `params` on the common layouts at the output resolution: a trace row, never the best.
+  Result<Evaluation> RunAtOutput(const LayoutParams& params) {
+    EvaluationOptions at_output = Eval(0, layouts);
+    at_output.width = at_output.height = 0;
+    Result<Evaluation> e = Evaluate(params, library, at_output);
+    if (!e.ok()) return e.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
+    output_seconds += e->seconds;
+    output_layouts += layouts;
+    TraceRow row{++report.evaluations, round, phase, ToUnits(ToUnit(options.space.Encode(params)).data()), e->metrics,
+                 Objective(e->metrics, options.targets), SecondsSince(start), layouts};
+    if (options.on_evaluation) options.on_evaluation(row);
+    report.trace.push_back(std::move(row));
+    return e;
   }
 
   static double Callback(unsigned n, const double* x, double* /*gradient*/, void* data) {
@@ -514,8 +526,8 @@ double Objective(const ProxyMetrics& metrics, const std::vector<Target>& targets
 }
 
 void DefaultEvaluationResolution(const LayoutParams& params, int* width, int* height) {
-  *width = std::max(16, params.width / 2);
-  *height = std::max(16, params.height / 2);
+  *width = std::max(16, params.width / 4);
+  *height = std::max(16, params.height / 4);
 }
 
 Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::AssetLibrary> library,
@@ -587,7 +599,17 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
       s.measured.clear();  // new common seeds
       // The start itself, exactly: a target it already meets costs no search.
       if (s.round == 0) {
-        SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start).status());
+        // Masks at the evaluation resolution lose the smallest objects and move areas near
+        // the class thresholds; the same layouts at the output resolution measure by how
+        // much, and the search aims at the targets shifted by that (as later rounds aim at
+        // them shifted by the confirmation).
+        std::optional<Evaluation> at_output;
+        if (r.eval_width != options.start.width || r.eval_height != options.start.height) {
+          s.phase = "output";
+          SOLID_ASSIGN_OR_RETURN(at_output, s.RunAtOutput(options.start));
+          s.phase = "start";
+        }
+        SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start, at_output ? &at_output->metrics : nullptr).status());
       } else {
         const LayoutParams previous = r.best;
         SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous, &confirmation.metrics).status());
@@ -610,8 +632,8 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         }
       }
       SOLID_ASSIGN_OR_RETURN(confirmation, Evaluate(r.best, library, s.Confirm()));
-      s.confirmation_seconds += confirmation.seconds;
-      s.confirmed_layouts += options.confirm_layouts;
+      s.output_seconds += confirmation.seconds;
+      s.output_layouts += options.confirm_layouts;
       if (Within(confirmation.metrics, options.targets, 1.0) || s.OutOfBudget()) break;
     }
     return Status::Ok();

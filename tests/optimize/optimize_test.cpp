@@ -108,7 +108,11 @@ TEST(Optimize, TargetOfTheStartIsMetWithoutSearch) {
   o.targets = TargetsOf(e->metrics, 4);
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
-  EXPECT_EQ(r->evaluations, 1);
+  // The start on its layouts at the output resolution, then at the evaluation resolution.
+  EXPECT_EQ(r->evaluations, 2);
+  ASSERT_EQ(r->trace.size(), 2u);
+  EXPECT_EQ(r->trace[0].phase, "output");
+  EXPECT_EQ(r->trace[1].phase, "start");
   EXPECT_TRUE(r->all_met) << r->ToJson().dump(1);
   EXPECT_EQ(r->best, o.start);
 }
@@ -225,9 +229,11 @@ TEST(Optimize, GaussNewtonMeasuresNoPointTwiceInARound) {
   int steps = 0;
   for (size_t a = 0; a < r->trace.size(); ++a) {
     const TraceRow& t = r->trace[a];
-    if (t.phase == "probe") continue;  // FindBlockers' probes, after the search
+    // FindBlockers' probes, after the search; the start at the output resolution, before it.
+    if (t.phase == "probe" || t.phase == "output") continue;
     steps += t.phase == "local";
     for (size_t b = 0; b < a; ++b) {
+      if (r->trace[b].phase == "output") continue;
       EXPECT_FALSE(r->trace[b].round == t.round && r->trace[b].x == t.x)
           << "evaluations " << r->trace[b].evaluation << " and " << t.evaluation << " measure the same point";
     }
@@ -291,8 +297,10 @@ TEST(Optimize, LaterRoundStartsFromThePreviousJacobian) {
   ASSERT_EQ(r->rounds, 2) << r->stop_reason;
   std::vector<std::string> first_round, second_round;
   for (const TraceRow& t : r->trace) (t.round == 0 ? first_round : second_round).push_back(t.phase);
-  ASSERT_GE(first_round.size(), 2u);
-  EXPECT_EQ(first_round[1], "jacobian");
+  ASSERT_GE(first_round.size(), 3u);
+  EXPECT_EQ(first_round[0], "output");
+  EXPECT_EQ(first_round[1], "start");
+  EXPECT_EQ(first_round[2], "jacobian");
   EXPECT_THAT(first_round, ::testing::Contains("local"));
   ASSERT_GE(second_round.size(), 2u);
   EXPECT_EQ(second_round[0], "start");
@@ -315,9 +323,12 @@ TEST(Optimize, CancelledSearchReturnsTheBestPointSoFar) {
   EXPECT_FALSE(r->all_met);
   ASSERT_EQ(r->evaluations, 3);
   ASSERT_EQ(r->trace.size(), 3u);
-  double best = r->trace[0].objective;
-  for (const TraceRow& t : r->trace) best = std::min(best, t.objective);
-  EXPECT_EQ(Objective(r->search_metrics, o.targets), best);
+  // The best of the search's rows (the first, at the output resolution, is a reference).
+  EXPECT_EQ(r->trace[0].phase, "output");
+  const auto best = std::min_element(r->trace.begin() + 1, r->trace.end(),
+                                     [](const TraceRow& a, const TraceRow& b) { return a.objective < b.objective; });
+  EXPECT_EQ(r->search_metrics.objects_per_image.mean, best->metrics.objects_per_image.mean);
+  EXPECT_EQ(r->search_metrics.visible_instances, best->metrics.visible_instances);
   ASSERT_EQ(r->results.size(), 1u);
   EXPECT_EQ(r->results[0].predicted.mean, r->search_metrics.objects_per_image.mean);
   EXPECT_EQ(r->confirmation.images, 0);
@@ -363,7 +374,8 @@ TEST(OptimizeCli, SigtermWritesTheBestPointSoFarAndTheTrace) {
   ASSERT_OK(text.status());
   const auto rows = std::count(text->begin(), text->end(), '\n') - 1;  // less the header
   EXPECT_GE(rows, 2);
-  EXPECT_THAT(std::string(text->begin(), text->end()), HasSubstr("\n1,0,start,"));
+  EXPECT_THAT(std::string(text->begin(), text->end()), HasSubstr("\n1,0,output,"));
+  EXPECT_THAT(std::string(text->begin(), text->end()), HasSubstr("\n2,0,start,"));
 }
 
 // A rerun of the main job reuses a fit only while everything it depends on is unchanged,

@@ -3,12 +3,13 @@
 // full render; and the metrics of rendered datasets (`solid metrics`).
 //
 // Evaluation of a point: `layouts` layouts drawn with the same seeds for every point
-// (common random numbers: the objective is a deterministic function of the point),
-// masks at the evaluation resolution, and COCO scale classes against the params' OUTPUT
-// resolution (areas scaled by the pixel-count ratio; see MetricsAccumulator). The
-// objective is sum_i ((metric_i - target_i) / tolerance_i)^2. Common seeds are the
-// layout indices [0, layouts); the best point is re-measured at the end on a disjoint
-// index range starting at kConfirmFirst, and pilots start at kPilotFirst.
+// (common random numbers: the objective is a deterministic function of the point), areas
+// counted by a metrics-only mask pass at the evaluation resolution, and COCO scale classes
+// as at the params' scale-class resolution (render::ScaleClassResolution: areas scaled by
+// the pixel-count ratio; see MetricsAccumulator). The objective is
+// sum_i ((metric_i - target_i) / tolerance_i)^2. Common seeds are the layout indices
+// [0, layouts); each round's best point is re-measured at the output resolution on a
+// disjoint index range starting at kConfirmFirst, and pilots start at kPilotFirst.
 //
 // Thread safety: Optimize and Evaluate use `jobs` threads and may run concurrently on
 // one AssetLibrary.
@@ -82,16 +83,19 @@ struct Evaluation {
 Result<Evaluation> Evaluate(const render::LayoutParams& params, std::shared_ptr<render::AssetLibrary> library,
                             const EvaluationOptions& options);
 
-// The evaluation resolution used when none is given: half the output's width and height
-// (320x240 for 640x480). Halving scales every projection by exactly 2 in floating point,
-// so the layouts are the output's, bit for bit (the frustum and clearance tests compare
-// pixel coordinates); only the pixel counts differ, and a mask pass costs about a quarter.
+// The evaluation resolution used when none is given: a quarter of the output's width and
+// height (160x120 for 640x480). A power-of-two divisor scales every projection exactly in
+// floating point, so the layouts are the output's, bit for bit (the frustum and clearance
+// tests compare pixel coordinates): only pixel counts differ, a mask pass costs about a
+// sixteenth, and the first round corrects for the difference (OptimizeOptions::layouts).
 void DefaultEvaluationResolution(const render::LayoutParams& params, int* width, int* height);
 
 struct TraceRow {
   int evaluation = 0;  // from 1
   int round = 0;
-  std::string phase;   // "start", "global", "jacobian" (gauss-newton's differences), "local", "probe"
+  // "output" (round one's start on its common layouts at the output resolution), "start",
+  // "global", "jacobian" (gauss-newton's differences), "local", "probe"
+  std::string phase;
   std::vector<double> x;
   ProxyMetrics metrics;
   double objective = 0;
@@ -116,9 +120,14 @@ struct OptimizeOptions {
   std::string global_algorithm;
   int global_evaluations = 0;
   uint64_t seed = 1;
-  int64_t layouts = 200;  // per evaluation, in the first round
+  // Per evaluation, in the first round. The first round measures its start on the same
+  // layouts at the output resolution too, and searches for the targets shifted by what
+  // the evaluation resolution changes there (TargetResult::search_offset).
+  int64_t layouts = 100;
   int eval_width = 0, eval_height = 0;  // 0: DefaultEvaluationResolution
-  int64_t confirm_layouts = 2000;
+  // Fresh layouts at the output resolution that measure each round's best point: what
+  // the report states, and what decides whether another round runs.
+  int64_t confirm_layouts = 1000;
   int64_t pilot_layouts = 0;  // 0: no pilot
   int max_evaluations = 300;
   // Bounds the search and the confirmation together: the search stops early enough to
@@ -143,8 +152,10 @@ struct TargetResult {
   Target target;
   Estimate predicted;  // on the fresh seeds at the output resolution (the confirmation)
   bool met = false;    // |predicted - target| <= tolerance
-  // The last round searched for target - search_offset on the common seeds: from the
-  // second round on, the confirmation's difference from them at the round's start.
+  // The last round searched for target - search_offset on the common seeds: in the first
+  // round, the output resolution's difference from the evaluation resolution's on the same
+  // layouts at the start; from the second on, the confirmation's difference from them at
+  // the round's start.
   double search_offset = 0;
   std::optional<Estimate> pilot;  // at the output resolution
   bool pilot_agrees = false;      // |pilot - predicted| <= tolerance + the difference's 95% CI
