@@ -337,7 +337,7 @@ Command AddOptimize(CLI::App& app) {
   cmd->add_option("--layouts,-n", o.layouts, "Layouts per evaluation (common seeds; doubled each round)")
       ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{1000000}));
   cmd->add_option("--eval-resolution", f->eval_resolution, "Mask resolution of evaluations (default: a quarter of the output's width and height)");
-  cmd->add_option("--confirm-layouts", o.confirm_layouts, "Fresh layouts at the output resolution that re-measure the best point")
+  cmd->add_option("--confirm-layouts", o.confirm_layouts, "Fresh layouts at the output resolution that re-measure the best point (the acceptance of solid-method.md 4.3 is over 2,000: raise it for a final check)")
       ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{10000000}));
   cmd->add_option("--pilot", o.pilot_layouts, "Fresh layouts at the output resolution checked against the prediction")
       ->capture_default_str();

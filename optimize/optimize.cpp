@@ -358,9 +358,20 @@ struct Search {
     if (jacobian_current) jacobian = previous_jacobian;
     bool jacobian_fresh = false;  // computed by differences, no Broyden update since
     int rejected = 0;
+    // A Jacobian has been in use: differenced here, or the previous round's.
+    bool differenced = jacobian_current;
     std::string converged;
     while (!stop()) {
+      // Differencing again costs an evaluation per dimension. When the best point already
+      // meets every target on the common layouts, confirming it on fresh ones is cheaper
+      // and tells more: their sampling error is what is left, and a missed confirmation
+      // starts a round that searches for the targets shifted by it.
+      if (!jacobian_current && differenced && Within(report.search_metrics, search_targets, 1.0)) {
+        converged = "every target within its tolerance on the common layouts; confirming instead of differencing again";
+        break;
+      }
       if (!jacobian_current) {
+        differenced = true;
         phase = "jacobian";
         const double h = std::clamp(radius, kMinDifference, kMaxDifference);
         for (size_t j = 0; j < n && !stop(); ++j) {

@@ -127,7 +127,7 @@ struct OptimizeOptions {
   int eval_width = 0, eval_height = 0;  // 0: DefaultEvaluationResolution
   // Fresh layouts at the output resolution that measure each round's best point: what
   // the report states, and what decides whether another round runs.
-  int64_t confirm_layouts = 1000;
+  int64_t confirm_layouts = 500;
   int64_t pilot_layouts = 0;  // 0: no pilot
   int max_evaluations = 300;
   // Bounds the search and the confirmation together: the search stops early enough to
