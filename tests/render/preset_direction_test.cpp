@@ -5,10 +5,15 @@
 // deterministic (fixed seed), so these are exact regressions of a statistical claim.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <filesystem>
 #include <map>
 #include <string>
 
+#include "fixtures/shared_testdata.h"
 #include "render/test_assets.h"
+#include "solid/convert/convert.h"
 #include "solid/render/params.h"
 #include "solid/render/sample.h"
 
@@ -71,14 +76,42 @@ TEST(PresetDirection, EachRowMovesTheMetricsAsTableOneShows) {
   // rotation: more object viewpoints under the same eye-level cameras.
   EXPECT_LT(ShareOfSteepViews(Row("scale-distribution").viewpoints), 0.05);
   EXPECT_GT(ShareOfSteepViews(Row("rotation").viewpoints), 0.3);
-  // scenenet-background: Table 1 has occlusion 33% -> 37% from SceneNet's cluttered shells.
-  // The procedural rooms are empty boxes, rescaled to the same 12 x 12 m as the white cube,
-  // so on them this row moves nothing; only that it is no worse is checked.
-  EXPECT_GE(Row("scenenet-background").metrics.occlusion.mean + Row("scenenet-background").metrics.occlusion.ci95,
-            Row("rotation").metrics.occlusion.mean);
+  // scenenet-background: Table 1 has occlusion 33% -> 37% from SceneNet's shells; the
+  // procedural rooms' pillars, wing and half walls, platforms and L/U/T corners stand
+  // between camera and objects as theirs do.
+  EXPECT_TRUE(ClearlyAbove(Row("scenenet-background").metrics.occlusion, Row("rotation").metrics.occlusion));
   // more-objects: 8.72 -> 13.72 once objects may float.
   EXPECT_TRUE(ClearlyAbove(Row("more-objects").metrics.objects_per_image,
                            Row("scenenet-background").metrics.objects_per_image));
+}
+
+// The same row on the SceneNet RGB-D layout of the shared data (bathroom11), with the
+// procedural models. Its floor is one rectangle walled on three sides: no wall stands
+// between a camera and objects on that floor, and the shower alcove, the one recess,
+// has no floor for either. So the shell cannot occlude there, and 200 layouts measure
+// 32.3% +- 1.8 against rotation's 33.0% +- 1.9: only "no lower" is claimed of it, and
+// the strict direction is left to rooms with structure (the test above).
+TEST(PresetDirectionOnSharedData, SceneNetBackgroundIsNoLowerOnTheSharedLayout) {
+  SOLID_SHARED_TESTDATA_OR_SKIP(scenenet, "real/scenenet-rgbd");
+  const std::filesystem::path rooms =
+      std::filesystem::temp_directory_path() / ("solid-direction-rooms-" + std::to_string(::getpid()));
+  convert::ConvertOptions convert_options;
+  convert_options.jobs = 2;
+  ASSERT_EQ(convert::ConvertSceneNet(scenenet, rooms, convert_options).value().failed, 0);
+  auto library = AssetLibrary::Open(testing::ProceduralAssetsDir(), rooms).value();
+  std::map<std::string, SampleReport> reports;
+  for (const std::string name : {"rotation", "scenenet-background"}) {
+    auto sampler = LayoutSampler::Create(LoadPreset(name).value(), library).value();
+    SampleOptions options;
+    options.seed = 2024;
+    options.layouts = kLayouts;
+    options.jobs = 2;
+    reports.emplace(name, RunSample(*sampler, options).value());
+    EXPECT_EQ(reports.at(name).failed_layouts, 0) << name;
+  }
+  std::filesystem::remove_all(rooms);
+  const Estimate& rooms_row = reports.at("scenenet-background").metrics.occlusion;
+  EXPECT_GE(rooms_row.mean + rooms_row.ci95, reports.at("rotation").metrics.occlusion.mean);
 }
 
 }  // namespace
