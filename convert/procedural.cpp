@@ -593,13 +593,15 @@ RoomPlan RandomPlan(Rng& rng) {
   }
   // What stands in the room between a camera and what it looks at: pillars and
   // half-height walls in the middle part of the room, wing walls out of a wall.
-  const int occluders = rng.Int(2, 3);
+  // Sizes follow the room's: rooms are stretched to 12 x 12 m for layouts, and a pillar
+  // wider than about a fifteenth of the room then fills half a frame.
+  const int occluders = rng.Int(2, 4);
   int placed = 0;
   for (int k = 0; k < 16 && placed < occluders; ++k) {
     const double pick = rng.Uniform();
-    const int kind = pick < 0.35 ? 0 : pick < 0.7 ? 2 : 1;
+    const int kind = pick < 0.45 ? 0 : pick < 0.75 ? 2 : 1;
     if (kind == 0) {
-      const double s = Snap(rng.Uniform(0.25, 0.55));
+      const double s = std::max(0.15, Snap(rng.Uniform(0.05, 0.08) * std::min(plan.width, plan.depth)));
       const double x = Snap(rng.Uniform(-hx * 0.4, hx * 0.4)), z = Snap(rng.Uniform(-hz * 0.4, hz * 0.4));
       const Rect r{x - s / 2, z - s / 2, x + s / 2, z + s / 2};
       if (inside_all(Rect{r.x0 - 0.5, r.z0 - 0.5, r.x1 + 0.5, r.z1 + 0.5}) && plan.Clear(r, 0.5)) {
@@ -612,7 +614,7 @@ RoomPlan RandomPlan(Rng& rng) {
     // A wall segment across x or z: from a bounding wall (a wing wall, full height) or
     // free-standing (a half-height wall).
     const bool wing = kind == 1, along_x = rng.Chance(0.5);
-    const double t = Snap(rng.Uniform(0.1, 0.2)), frac = rng.Uniform(0.3, 0.6), at = rng.Uniform(-0.3, 0.3);
+    const double t = Snap(rng.Uniform(0.1, 0.15)), frac = rng.Uniform(0.2, 0.45), at = rng.Uniform(-0.3, 0.3);
     const double e_along = along_x ? hx : hz, e_across = along_x ? hz : hx;
     const double len = Snap(2 * e_along * frac), pos = Snap(at * e_across);
     const bool from_low = rng.Chance(0.5);
@@ -627,7 +629,7 @@ RoomPlan RandomPlan(Rng& rng) {
       plan.pillars.push_back(r);
       plan.features.push_back("wing_wall");
     } else {
-      plan.levels.push_back({r, Snap(rng.Uniform(0.9, 1.3)), true});
+      plan.levels.push_back({r, Snap(rng.Uniform(0.6, 1.0)), true});
       plan.features.push_back("half_wall");
     }
   }
