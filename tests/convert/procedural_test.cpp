@@ -299,12 +299,20 @@ TEST(ProceduralShape, IndicesAndSeedsGiveDifferentShapes) {
   EXPECT_EQ(distinct_textures.size(), 4u * kShapeFamilyCount);
 }
 
-TEST(ProceduralShape, DefaultMixesEveryFamilyInTurn) {
-  for (int index = 0; index < 2 * kShapeFamilyCount; ++index) {
-    auto asset = MakeProceduralShape(kSeed, index, "k", {.texture_size = 8});
-    ASSERT_OK(asset.status());
-    EXPECT_EQ(asset->extras.value("family", ""), ShapeFamilyName(Family(index % kShapeFamilyCount)));
+TEST(ProceduralShape, DefaultMixesEveryFamilyAndLeansLikeShapeNet) {
+  std::map<std::string, int> counts;
+  for (int index = 0; index < 64; ++index) {
+    const std::string family(ShapeFamilyName(FamilyOfIndex(index, {})));
+    if (index < kShapeFamilyCount) EXPECT_EQ(family, ShapeFamilyName(Family(index)));
+    ++counts[family];
   }
+  EXPECT_EQ(counts.size(), static_cast<size_t>(kShapeFamilyCount));
+  EXPECT_EQ(counts["table"], 10);
+  EXPECT_EQ(counts["chair"], 8);
+  EXPECT_EQ(counts["guitar"], 2);
+  auto asset = MakeProceduralShape(kSeed, 20, "k", {.texture_size = 8});
+  ASSERT_OK(asset.status());
+  EXPECT_EQ(asset->extras.value("family", ""), ShapeFamilyName(FamilyOfIndex(20, {})));
 }
 
 TEST(ProceduralShape, FamiliesOptionPicksAndOrdersFamilies) {
