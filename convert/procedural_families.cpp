@@ -71,7 +71,7 @@ ModelSpec Chair(Draw d) {
   ModelSpec m;
   m.materials = {{"frame", d.Pick({Surfacing::kWood, Surfacing::kMetal, Surfacing::kPlastic})},
                  {"seat", d.Pick({Surfacing::kFabric, Surfacing::kWood, Surfacing::kLeather, Surfacing::kPlastic})}};
-  const double w = d.U(0.40, 0.60), depth = d.U(0.40, 0.55), h = d.U(0.40, 0.50), t = d.U(0.025, 0.08);
+  const double w = d.U(0.42, 0.62), depth = d.U(0.42, 0.56), h = d.U(0.40, 0.50), t = d.U(0.025, 0.08);
   const bool padded = d.C(0.5);
   auto& parts = m.parts;
   parts.push_back(padded ? RoundedBoxPart({0, h, 0}, {w / 2, t / 2 + 0.01, depth / 2}, d.U(0.15, 0.35), 1)
@@ -116,7 +116,7 @@ ModelSpec Chair(Draw d) {
   }
   // The back, built upright at the seat's rear edge, then tilted back about that edge.
   if (d.C(0.92)) {
-    const double bh = d.U(0.30, 0.60), bt = d.U(0.02, 0.06), tilt = d.U(0.0, 0.25);
+    const double bh = d.U(0.30, 0.50), bt = d.U(0.02, 0.06), tilt = d.U(0.0, 0.25);
     const size_t first = parts.size();
     const double y0 = h + t / 2 - 0.005, z = depth / 2 - bt / 2;
     const int kind = d.I(0, 2);
@@ -162,7 +162,7 @@ ModelSpec Table(Draw d) {
   const double h = kind == 1 ? d.U(0.35, 0.5) : kind == 3 ? d.U(0.5, 0.75) : d.U(0.70, 0.78);
   const bool round = kind == 3 || d.C(0.15);
   const double len = round ? d.U(0.35, 0.6) : kind == 2 ? d.U(1.0, 1.6) : d.U(0.8, 2.0);
-  const double wid = round ? len : len * d.U(0.45, 0.75), t = d.U(0.02, 0.06);
+  const double wid = round ? len : len * d.U(0.5, 1.0), t = d.U(0.02, 0.06);
   auto& parts = m.parts;
   if (round) {
     const double r = len;
@@ -532,7 +532,7 @@ ModelSpec Airplane(Draw d) {
   ModelSpec m;
   m.materials = {{"body", d.Pick({Surfacing::kPaint, Surfacing::kMetal})}, {"tail", Surfacing::kPaint},
                  {"engines", Surfacing::kMetal}};
-  const double len = d.U(8, 40), r = len * d.U(0.04, 0.07), span = len * d.U(0.8, 1.3);
+  const double len = d.U(8, 40), r = len * d.U(0.05, 0.08), span = len * d.U(0.8, 1.2);
   const double nose = d.U(1.5, 3.5) * r, tail_len = d.U(3, 5) * r;
   auto& parts = m.parts;
   // Fuselage along +Y from tail (y = 0) to nose (y = len), then turned so the nose is -z.
@@ -560,7 +560,7 @@ ModelSpec Airplane(Draw d) {
   const double tail_z = len / 2 - tail_len * 0.5;
   parts.push_back(ExtrusionPart(Polygon(planform(tail_span / 2, tail_root, tail_root * 0.5, tail_root * 0.5, -tail_z)),
                                 thick * 0.35, {0, r * 0.3, 0}, 1, flat));
-  const double fin_h = r * d.U(2.0, 3.5), fin_root = tail_root * d.U(1.0, 1.6);
+  const double fin_h = r * d.U(2.5, 4.0), fin_root = tail_root * d.U(1.0, 1.6);
   // Fin outline in (x: forward, y: up), extruded across (RotationY(pi/2): +x to -z).
   parts.push_back(ExtrusionPart(Polygon({{-tail_z - fin_root / 2, r * 0.5}, {-tail_z + fin_root / 2, r * 0.5},
                                          {-tail_z - fin_root * 0.1, r + fin_h}, {-tail_z - fin_root * 0.45, r + fin_h}}),
