@@ -108,9 +108,10 @@ TEST(PresetDirection, EachRowMovesTheMetricsAsTableOneShows) {
 // The same row on the SceneNet RGB-D layout of the shared data (bathroom11), with the
 // procedural models. Its floor is one rectangle walled on three sides: no wall stands
 // between a camera and objects on that floor, and the shower alcove, the one recess,
-// has no floor for either. So the shell cannot occlude there, and 200 layouts measure
-// 32.3% +- 1.8 against rotation's 33.0% +- 1.9: only "no lower" is claimed of it, and
-// the strict direction is left to rooms with structure (the test above).
+// has no floor for either. So the shell cannot occlude there: 200 layouts measure
+// 33.5% +- 1.9 against rotation's 33.8% +- 1.9 (34.3 and 33.9 at 640x480). Only "no
+// lower" is claimed of it, over enough layouts for that to mean something; the strict
+// direction is left to rooms with structure (the test above).
 TEST(PresetDirectionOnSharedData, SceneNetBackgroundIsNoLowerOnTheSharedLayout) {
   SOLID_SHARED_TESTDATA_OR_SKIP(scenenet, "real/scenenet-rgbd");
   const std::filesystem::path rooms =
@@ -124,7 +125,7 @@ TEST(PresetDirectionOnSharedData, SceneNetBackgroundIsNoLowerOnTheSharedLayout) 
     auto sampler = LayoutSampler::Create(LoadPreset(name).value(), library).value();
     SampleOptions options;
     options.seed = 2024;
-    options.layouts = kLayouts;
+    options.layouts = 200;
     options.jobs = 2;
     reports.emplace(name, RunSample(*sampler, options).value());
     EXPECT_EQ(reports.at(name).failed_layouts, 0) << name;
