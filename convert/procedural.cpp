@@ -382,7 +382,8 @@ std::string SeedHex(uint64_t seed) { return fmt::format("{:#018x}", seed); }
 // about a metre.
 std::vector<double> GridLines(std::vector<double> keys) {
   std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  // Sums of snapped values can miss the 5 cm grid by an ulp: one line, not a sliver.
+  keys.erase(std::unique(keys.begin(), keys.end(), [](double a, double b) { return b - a < 1e-6; }), keys.end());
   std::vector<double> lines;
   for (size_t k = 0; k + 1 < keys.size(); ++k) {
     const int steps = std::max(1, static_cast<int>(std::ceil(keys[k + 1] - keys[k] - 1e-9)));
@@ -755,7 +756,7 @@ void BuildShell(const RoomPlan& plan, ShellBuilder& out) {
   const auto ceiling = [&](const Cell& c, size_t corner_i) { return std::min(c.cap, plan.CeilingAt(plan.x_lines[corner_i])); };
   // Heights at which faces break on the vertical line through grid point (i, k).
   const auto breaks = [&](size_t i, size_t k) {
-    std::vector<double> ys = plan.y_lines;
+    std::vector<double> ys;
     for (int64_t di = -1; di <= 0; ++di) {
       for (int64_t dk = -1; dk <= 0; ++dk) {
         if (const Cell* c = cell(static_cast<int64_t>(i) + di, static_cast<int64_t>(k) + dk)) {
@@ -763,6 +764,13 @@ void BuildShell(const RoomPlan& plan, ShellBuilder& out) {
           ys.push_back(ceiling(*c, i));
         }
       }
+    }
+    // Panel lines, except one an ulp from a floor or ceiling height: that would be a sliver.
+    const size_t heights = ys.size();
+    for (const double y : plan.y_lines) {
+      bool near = false;
+      for (size_t h = 0; h < heights; ++h) near = near || std::fabs(ys[h] - y) < 1e-6;
+      if (!near) ys.push_back(y);
     }
     std::sort(ys.begin(), ys.end());
     ys.erase(std::unique(ys.begin(), ys.end()), ys.end());

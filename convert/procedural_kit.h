@@ -297,20 +297,6 @@ inline Part TubePart(std::vector<Vec3> path, double radius, int material) {
 inline Outline Polygon(std::vector<std::array<double, 2>> points) {
   return [points = std::move(points)](double) { return points; };
 }
-// An ellipse of semi-axes (rx, ry) centred at (cx, cy), fine enough for `edge`.
-inline Outline Ellipse(double cx, double cy, double rx, double ry) {
-  return [=](double edge) {
-    const double perimeter = 2 * kPi * std::sqrt((rx * rx + ry * ry) / 2);
-    const int n = CountFor(perimeter, edge, 12);
-    std::vector<std::array<double, 2>> points;
-    for (int k = 0; k < n; ++k) {
-      const double a = 2 * kPi * k / n;
-      points.push_back({cx + rx * std::cos(a), cy + ry * std::sin(a)});
-    }
-    return points;
-  };
-}
-
 Shape BuildPart(const Part& part, double edge);
 // Signed volume of a closed shape: positive when its winding faces outwards.
 double SignedVolume(const Shape& shape);

@@ -441,6 +441,18 @@ TEST(ProceduralRoom, RoomsAreClosedInwardFacingAndInRange) {
         EXPECT_TRUE(std::fabs(n[1]) < 1e-6 || n[1] > 1 - 1e-6 || n[1] < -0.93);
       }
     }
+    // No zero-area triangle (a sliver cell between two nearly equal feature edges):
+    // Draco drops them, so the decoded room would differ from the generated one.
+    int degenerate = 0;
+    for (const Node* node : {floor, wall, ceiling}) {
+      for (const Primitive& p : node->primitives) {
+        for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+          const Vec a = Position(p, p.indices[t]), b = Position(p, p.indices[t + 1]), c = Position(p, p.indices[t + 2]);
+          degenerate += Norm(Cross(Sub(b, a), Sub(c, a))) < 1e-8;
+        }
+      }
+    }
+    EXPECT_EQ(degenerate, 0);
     // The shell is one closed mesh wound inwards (no light leaks through seams), shelves
     // closed boxes wound outwards.
     const WeldedMesh mesh = Weld({floor, wall, ceiling});
