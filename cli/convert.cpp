@@ -15,7 +15,7 @@ struct ConvertFlags {
   std::string root, out;
   int jobs = 0;
   int64_t limit = -1;
-  std::vector<std::string> synsets;
+  std::vector<std::string> synsets, families;
   int version = 0;
   bool retry_failed = false, all_objects = false, texture_library = false, verbose = false;
   gltf::DracoOptions draco;
@@ -126,6 +126,11 @@ Command AddConvert(CLI::App& app) {
       ->capture_default_str();
   procedural->add_option("--max-triangles", f->procedural.shapes.max_triangles, "Most triangles of a shape")
       ->capture_default_str();
+  procedural->add_option("--families", f->families,
+                         "Only these shape families, comma-separated (default: all, mixed): chair, table, sofa, bed, "
+                         "cabinet, bookshelf, lamp, display, car, airplane, bottle, vase, mug, bowl, bench, "
+                         "trash_bin, guitar, laptop")
+      ->delimiter(',');
   AddCommonFlags(procedural, f.get());
   return [f, shapenet, scenenet] {
     if (shapenet->parsed()) {
@@ -134,6 +139,9 @@ Command AddConvert(CLI::App& app) {
     if (scenenet->parsed()) {
       return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertSceneNet(f->root, f->out, o); });
     }
+    Result<std::vector<convert::ShapeFamily>> families = convert::ParseShapeFamilies(f->families);
+    if (!families.ok()) return Fail(families.status().WithContext("--families"));
+    f->procedural.shapes.families = std::move(families).value();
     return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertProcedural(f->procedural, f->out, o); });
   };
 }

@@ -778,8 +778,9 @@ Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path
     job.generator_identity = fmt::format("procedural {} seed {} index {}", room ? "room" : "shape", Hex64(set.seed), i);
     const ProceduralShapeOptions shapes = set.shapes;
     if (!room) {
-      job.generator_identity += fmt::format(" triangles {}-{} texture {}", shapes.min_triangles, shapes.max_triangles,
-                                            shapes.texture_size);
+      job.generator_identity += fmt::format(" triangles {}-{} texture {} family {}", shapes.min_triangles,
+                                            shapes.max_triangles, shapes.texture_size,
+                                            ShapeFamilyName(FamilyOfIndex(i, shapes)));
     }
     std::string key = job.key;
     uint64_t seed = set.seed;

@@ -5,22 +5,22 @@
 #include <cmath>
 #include <functional>
 #include <map>
-#include <numbers>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "procedural_families.h"
+#include "procedural_kit.h"
 #include "solid/formats/image_codec.h"
 #include "solid/formats/random.h"
 
 namespace solid::convert {
 // The asset model and its glb codec live in formats (render reads them too).
 using namespace solid::gltf;
+using namespace solid::convert::kit;
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 // ---------------------------------------------------------------------------------------
 // Randomness: solid/formats/random.h. Separate streams, so that a change to how
@@ -32,229 +32,7 @@ enum Stream : uint64_t {
   kRoomMaterialStream = 4,
 };
 
-// ---------------------------------------------------------------------------------------
-// Geometry helpers. Everything is built in double and converted to float once, at the end.
-
-struct Vec3 {
-  double x = 0, y = 0, z = 0;
-};
-Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3 operator*(Vec3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-double Dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3 Cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double Length(Vec3 a) { return std::sqrt(Dot(a, a)); }
-
-double Lerp(double a, double b, double t) { return a + (b - a) * t; }
-double SmoothStep(double t) { return t * t * (3 - 2 * t); }
 double Fract(double x) { return x - std::floor(x); }
-
-// Rotation as a matrix from a random unit quaternion (Shoemake's uniform method).
-struct Rotation {
-  std::array<Vec3, 3> rows = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
-  Vec3 Apply(Vec3 v) const { return {Dot(rows[0], v), Dot(rows[1], v), Dot(rows[2], v)}; }
-};
-
-Rotation RandomRotation(Rng& rng) {
-  const double u1 = rng.Uniform(), u2 = rng.Uniform(), u3 = rng.Uniform();
-  const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
-  const double w = a * std::sin(2 * kPi * u2), x = a * std::cos(2 * kPi * u2);
-  const double y = b * std::sin(2 * kPi * u3), z = b * std::cos(2 * kPi * u3);
-  Rotation r;
-  r.rows[0] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)};
-  r.rows[1] = {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)};
-  r.rows[2] = {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)};
-  return r;
-}
-
-// Direction in the xz plane at fraction s of a turn about +Y. It turns clockwise seen from
-// above, which makes dP/ds x dP/dt point outwards for surfaces whose t runs upwards.
-std::pair<double, double> AroundY(double s) { return {std::cos(2 * kPi * s), -std::sin(2 * kPi * s)}; }
-
-// A smoothing group: vertex normals are averaged over the triangles that touch the same
-// position within one surface and never across surfaces, so a cap stays flat next to a
-// smooth side. Seam and pole vertices are duplicated (for their UVs) at bit-identical
-// positions, which is what makes them weld here and in closedness checks.
-struct Surface {
-  std::vector<Vec3> positions;
-  std::vector<std::array<double, 2>> uvs;
-  std::vector<uint32_t> indices;
-  std::vector<int> triangle_materials;
-
-  uint32_t AddVertex(Vec3 p, double u, double v) {
-    positions.push_back(p);
-    uvs.push_back({u, v});
-    return static_cast<uint32_t>(positions.size() - 1);
-  }
-  // Counter-clockwise seen from the side the normal points to.
-  void AddTriangle(uint32_t a, uint32_t b, uint32_t c, int material) {
-    indices.insert(indices.end(), {a, b, c});
-    triangle_materials.push_back(material);
-  }
-  void AddQuad(uint32_t a, uint32_t b, uint32_t c, uint32_t d, int material) {
-    AddTriangle(a, b, c, material);
-    AddTriangle(a, c, d, material);
-  }
-};
-
-using Shape = std::vector<Surface>;
-using SurfaceFunction = std::function<Vec3(double s, double t)>;
-using MaterialFunction = std::function<int(double s, double t)>;
-
-int64_t CountTriangles(const Shape& shape) {
-  int64_t n = 0;
-  for (const Surface& s : shape) n += static_cast<int64_t>(s.triangle_materials.size());
-  return n;
-}
-
-enum class GridEnds {
-  kOpen,      // rows 0 and `rows` are rims (closed by caps elsewhere)
-  kPoles,     // rows 0 and `rows` collapse to one point each (spheres)
-  kPeriodic,  // row `rows` is row 0 again (tori)
-};
-
-// A surface P(s, t), s in [0, 1) around, t in [0, 1] from bottom to top, with outward
-// normal dP/ds x dP/dt. Column `cols` repeats column 0's positions with u = 1 so the texture
-// needs no wrap-around; UV v = 1 - t puts the top of the texture at the top of the shape.
-Surface GridSurface(int cols, int rows, GridEnds ends, const SurfaceFunction& at,
-                    const MaterialFunction& material_at) {
-  Surface surface;
-  std::vector<Vec3> ring(static_cast<size_t>(cols)), first_ring;
-  for (int i = 0; i <= rows; ++i) {
-    const double t = static_cast<double>(i) / rows;
-    const bool pole = ends == GridEnds::kPoles && (i == 0 || i == rows);
-    if (ends == GridEnds::kPeriodic && i == rows) {
-      ring = first_ring;
-    } else if (pole) {
-      std::fill(ring.begin(), ring.end(), at(0, t));
-    } else {
-      for (int j = 0; j < cols; ++j) ring[static_cast<size_t>(j)] = at(static_cast<double>(j) / cols, t);
-    }
-    if (i == 0) first_ring = ring;
-    // A pole vertex serves one triangle (the one to its right at the bottom, to its left
-    // at the top), so its u is that triangle's middle.
-    const double u_offset = !pole ? 0.0 : i == 0 ? 0.5 : -0.5;
-    for (int j = 0; j <= cols; ++j) {
-      surface.AddVertex(ring[static_cast<size_t>(j % cols)], (j + u_offset) / cols, 1 - t);
-    }
-  }
-  const auto index = [cols](int i, int j) { return static_cast<uint32_t>(i * (cols + 1) + j); };
-  for (int i = 0; i < rows; ++i) {
-    for (int j = 0; j < cols; ++j) {
-      const int material = material_at((j + 0.5) / cols, (i + 0.5) / rows);
-      const uint32_t a = index(i, j), b = index(i, j + 1), c = index(i + 1, j + 1), d = index(i + 1, j);
-      if (ends == GridEnds::kPoles && i == 0) {
-        surface.AddTriangle(a, c, d, material);
-      } else if (ends == GridEnds::kPoles && i == rows - 1) {
-        surface.AddTriangle(a, b, c, material);
-      } else {
-        surface.AddQuad(a, b, c, d, material);
-      }
-    }
-  }
-  return surface;
-}
-
-// The longest ring (constant t) and the longest meridian (constant s) of a surface,
-// sampled; they turn a target edge length into a column and a row count.
-struct GridExtent {
-  double ring_length = 0, meridian_length = 0;
-};
-
-GridExtent MeasureGrid(const SurfaceFunction& at) {
-  constexpr int kAround = 64, kAlong = 32;
-  GridExtent extent;
-  for (int i = 0; i <= kAlong; ++i) {
-    double length = 0;
-    for (int j = 0; j < kAround; ++j) {
-      const double t = static_cast<double>(i) / kAlong;
-      length += Length(at(static_cast<double>(j + 1) / kAround, t) - at(static_cast<double>(j) / kAround, t));
-    }
-    extent.ring_length = std::max(extent.ring_length, length);
-  }
-  for (int j = 0; j < kAround; j += 4) {
-    double length = 0;
-    for (int i = 0; i < kAlong; ++i) {
-      const double s = static_cast<double>(j) / kAround;
-      length += Length(at(s, static_cast<double>(i + 1) / kAlong) - at(s, static_cast<double>(i) / kAlong));
-    }
-    extent.meridian_length = std::max(extent.meridian_length, length);
-  }
-  return extent;
-}
-
-int CountFor(double length, double edge, int at_least) {
-  return std::max(at_least, static_cast<int>(std::lround(length / edge)));
-}
-
-Surface ClosedGrid(const SurfaceFunction& at, GridEnds ends, double edge, const MaterialFunction& material_at) {
-  const GridExtent extent = MeasureGrid(at);
-  const int cols = CountFor(extent.ring_length, edge, 8);
-  const int rows = CountFor(extent.meridian_length, edge, ends == GridEnds::kPoles ? 4 : 3);
-  return GridSurface(cols, rows, ends, at, material_at);
-}
-
-// A flat cap closing the rim of a sweep at t = 0 or 1: concentric copies of the rim
-// shrunk towards the axis, so any rim that is star-shaped about the axis triangulates
-// without folds. The outermost ring reuses the rim's positions exactly (watertight).
-Surface Cap(const SurfaceFunction& at, int cols, int rings, bool top, int material) {
-  Surface cap;
-  std::vector<Vec3> rim(static_cast<size_t>(cols));
-  double radius = 0;
-  for (int j = 0; j < cols; ++j) {
-    rim[static_cast<size_t>(j)] = at(static_cast<double>(j) / cols, top ? 1.0 : 0.0);
-    radius = std::max(radius, std::hypot(rim[static_cast<size_t>(j)].x, rim[static_cast<size_t>(j)].z));
-  }
-  const Vec3 centre{0, rim[0].y, 0};
-  const auto planar_uv = [radius](Vec3 p) {
-    return std::array<double, 2>{0.5 + p.x / (2 * radius), 0.5 + p.z / (2 * radius)};
-  };
-  const auto add = [&](Vec3 p) {
-    const auto uv = planar_uv(p);
-    return cap.AddVertex(p, uv[0], uv[1]);
-  };
-  const uint32_t centre_index = add(centre);
-  std::vector<uint32_t> inner, outer;
-  for (int q = 1; q <= rings; ++q) {
-    outer.clear();
-    for (int j = 0; j < cols; ++j) {
-      const Vec3& r = rim[static_cast<size_t>(j)];
-      outer.push_back(add(q == rings ? r : centre + (r - centre) * (static_cast<double>(q) / rings)));
-    }
-    for (int j = 0; j < cols; ++j) {
-      const uint32_t o0 = outer[static_cast<size_t>(j)], o1 = outer[static_cast<size_t>((j + 1) % cols)];
-      if (q == 1) {
-        top ? cap.AddTriangle(centre_index, o0, o1, material) : cap.AddTriangle(centre_index, o1, o0, material);
-      } else {
-        const uint32_t i0 = inner[static_cast<size_t>(j)], i1 = inner[static_cast<size_t>((j + 1) % cols)];
-        top ? cap.AddQuad(i0, o0, o1, i1, material) : cap.AddQuad(i0, i1, o1, o0, material);
-      }
-    }
-    std::swap(inner, outer);
-  }
-  return cap;
-}
-
-// A generalised cylinder: the open grid P(s, t) plus flat caps at both ends. Each ring
-// must be planar (constant y) and star-shaped about the Y axis.
-Shape Sweep(const SurfaceFunction& at, double edge, int side_material, int cap_material) {
-  const GridExtent extent = MeasureGrid(at);
-  const int cols = CountFor(extent.ring_length, edge, 8);
-  const int rows = CountFor(extent.meridian_length, edge, 1);
-  const auto rim_radius = [&](double t) {
-    double r = 0;
-    for (int j = 0; j < 64; ++j) {
-      const Vec3 p = at(j / 64.0, t);
-      r = std::max(r, std::hypot(p.x, p.z));
-    }
-    return r;
-  };
-  Shape shape;
-  shape.push_back(GridSurface(cols, rows, GridEnds::kOpen, at, [=](double, double) { return side_material; }));
-  shape.push_back(Cap(at, cols, CountFor(rim_radius(0), edge, 1), false, cap_material));
-  shape.push_back(Cap(at, cols, CountFor(rim_radius(1), edge, 1), true, cap_material));
-  return shape;
-}
 
 // ---------------------------------------------------------------------------------------
 // Noise. Value noise on a hashed integer lattice: cheap, seedable, and the same bits
@@ -267,20 +45,6 @@ double LatticeValue(uint64_t seed, int64_t x, int64_t y, int64_t z) {
 }
 
 double Fade(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }
-
-double ValueNoise3(uint64_t seed, Vec3 p) {
-  const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
-  const auto x0 = static_cast<int64_t>(fx), y0 = static_cast<int64_t>(fy), z0 = static_cast<int64_t>(fz);
-  const double tx = Fade(p.x - fx), ty = Fade(p.y - fy), tz = Fade(p.z - fz);
-  double corner[2][2];
-  for (int dz = 0; dz < 2; ++dz) {
-    for (int dy = 0; dy < 2; ++dy) {
-      corner[dz][dy] = Lerp(LatticeValue(seed, x0, y0 + dy, z0 + dz), LatticeValue(seed, x0 + 1, y0 + dy, z0 + dz), tx);
-    }
-  }
-  return Lerp(Lerp(corner[0][0], corner[0][1], ty), Lerp(corner[1][0], corner[1][1], ty), tz);
-}
-
 // Periodic in x with period_x lattice cells and in y with period_y, so a texture that
 // samples one period tiles seamlessly.
 double TileableNoise2(uint64_t seed, double x, double y, int period_x, int period_y) {
@@ -306,264 +70,11 @@ double TileableFbm(uint64_t seed, double u, double v, int period_x, int period_y
 }
 
 // ---------------------------------------------------------------------------------------
-// Shape families. Each draws its parameters once and returns a function from a target
-// edge length to a tessellation, so the triangle budget can be met by adjusting the edge.
-
-using Tessellator = std::function<Shape(double edge)>;
-
-MaterialFunction SingleMaterial() {
-  return [](double, double) { return 0; };
-}
-
-// With two materials, a band of the surface (in t, or in s for variety) gets the second.
-MaterialFunction BandMaterial(Rng& rng, int material_count) {
-  if (material_count == 1) return SingleMaterial();
-  const bool along_t = rng.Chance(0.6);
-  const double lo = rng.Uniform(0.1, 0.6), hi = lo + rng.Uniform(0.15, 0.35);
-  return [=](double s, double t) {
-    const double x = along_t ? t : s;
-    return (x >= lo && x < hi) ? 1 : 0;
-  };
-}
-
-// sign(x) |x|^e, zero near zero so that poles land exactly on the axis.
-double SignedPow(double x, double e) {
-  if (std::abs(x) < 1e-12) return 0;
-  return std::copysign(std::pow(std::abs(x), e), x);
-}
-
-Tessellator Superquadric(Rng& rng, int material_count) {
-  const Vec3 axes{rng.Uniform(0.4, 1), rng.Uniform(0.4, 1), rng.Uniform(0.4, 1)};
-  const double e1 = rng.Uniform(0.2, 3), e2 = rng.Uniform(0.2, 3);
-  const MaterialFunction material_at = BandMaterial(rng, material_count);
-  const SurfaceFunction at = [=](double s, double t) {
-    const double eta = kPi * (t - 0.5), omega = 2 * kPi * s;
-    const double ring = SignedPow(std::cos(eta), e1);
-    return Vec3{axes.x * ring * SignedPow(std::cos(omega), e2), axes.y * SignedPow(std::sin(eta), e1),
-                -axes.z * ring * SignedPow(std::sin(omega), e2)};
-  };
-  return [=](double edge) { return Shape{ClosedGrid(at, GridEnds::kPoles, edge, material_at)}; };
-}
-
-Tessellator NoisySphere(Rng& rng, int material_count) {
-  const Vec3 axes{rng.Uniform(0.7, 1), rng.Uniform(0.7, 1), rng.Uniform(0.7, 1)};
-  const int octaves = rng.Int(2, 4);
-  const double frequency = rng.Uniform(0.8, 2.5), amplitude = rng.Uniform(0.12, 0.35);
-  const uint64_t noise_seed = rng.Seed();
-  const MaterialFunction material_at = BandMaterial(rng, material_count);
-  const SurfaceFunction at = [=](double s, double t) {
-    const double eta = kPi * (t - 0.5);
-    const auto [cx, cz] = AroundY(s);
-    const Vec3 direction{std::cos(eta) * cx, std::sin(eta), std::cos(eta) * cz};
-    double radius = 1, f = frequency, a = amplitude;
-    for (int o = 0; o < octaves; ++o) {
-      radius += a * ValueNoise3(MixSeed(noise_seed, static_cast<uint64_t>(o)), direction * f);
-      f *= 2.0;
-      a *= 0.5;
-    }
-    // Keeps the surface star-shaped about the centre, hence free of self-intersections.
-    radius = std::max(radius, 0.3);
-    return Vec3{axes.x * direction.x * radius, axes.y * direction.y * radius, axes.z * direction.z * radius};
-  };
-  return [=](double edge) { return Shape{ClosedGrid(at, GridEnds::kPoles, edge, material_at)}; };
-}
-
-// An outline radius r(angle) > 0: a few random harmonics (a blob) or rounded lobes (a star).
-std::function<double(double)> RandomOutline(Rng& rng) {
-  if (rng.Chance(0.5)) {
-    std::array<double, 4> amplitude{}, phase{};
-    for (size_t k = 0; k < amplitude.size(); ++k) {
-      amplitude[k] = rng.Uniform(0, 0.35 / std::sqrt(static_cast<double>(k + 2)));
-      phase[k] = rng.Uniform(0, 2 * kPi);
-    }
-    return [=](double angle) {
-      double r = 1;
-      for (size_t k = 0; k < amplitude.size(); ++k) r += amplitude[k] * std::cos(static_cast<double>(k + 2) * angle + phase[k]);
-      return std::max(r, 0.25);
-    };
-  }
-  const int lobes = rng.Int(3, 8);
-  const double inner = rng.Uniform(0.35, 0.75), sharpness = rng.Uniform(1, 4);
-  return [=](double angle) {
-    return inner + (1 - inner) * std::pow(0.5 + 0.5 * std::cos(lobes * angle), sharpness);
-  };
-}
-
-Tessellator Extrusion(Rng& rng, int material_count) {
-  const std::function<double(double)> outline = RandomOutline(rng);
-  const double stretch_x = rng.Uniform(0.6, 1), stretch_z = rng.Uniform(0.6, 1);
-  const double height = rng.Uniform(0.15, 1.4);
-  const double taper = rng.Chance(0.4) ? rng.Uniform(0, 0.5) : 0.0;
-  const double twist = rng.Chance(0.3) ? rng.Uniform(-0.9, 0.9) : 0.0;
-  const int cap_material = material_count - 1;
-  const SurfaceFunction at = [=](double s, double t) {
-    const auto [cx, cz] = AroundY(s);
-    const double r = outline(2 * kPi * s) * (1 - taper * t);
-    const double x = r * cx * stretch_x, z = r * cz * stretch_z;
-    const double c = std::cos(twist * t), sn = std::sin(twist * t);
-    return Vec3{c * x - sn * z, height * (t - 0.5), sn * x + c * z};
-  };
-  return [=](double edge) { return Sweep(at, edge, 0, cap_material); };
-}
-
-// Catmull-Rom through random radii: a smooth profile (vases, bottles, lamp bases).
-Tessellator Revolution(Rng& rng, int material_count) {
-  const int control_count = rng.Int(4, 7);
-  std::vector<double> radii(static_cast<size_t>(control_count));
-  for (double& r : radii) r = rng.Uniform(0.2, 1);
-  const double height = rng.Uniform(0.8, 2.4);
-  const int cap_material = material_count - 1;
-  const auto profile = [radii](double t) {
-    const double x = t * static_cast<double>(radii.size() - 1);
-    const auto i = std::min(static_cast<int64_t>(x), static_cast<int64_t>(radii.size()) - 2);
-    const double f = x - static_cast<double>(i);
-    const auto r = [&](int64_t k) { return radii[static_cast<size_t>(std::clamp<int64_t>(k, 0, static_cast<int64_t>(radii.size()) - 1))]; };
-    const double p0 = r(i - 1), p1 = r(i), p2 = r(i + 1), p3 = r(i + 2);
-    const double value = 0.5 * (2 * p1 + (p2 - p0) * f + (2 * p0 - 5 * p1 + 4 * p2 - p3) * f * f +
-                                (3 * p1 - p0 - 3 * p2 + p3) * f * f * f);
-    return std::max(value, 0.08);
-  };
-  const SurfaceFunction at = [=](double s, double t) {
-    const auto [cx, cz] = AroundY(s);
-    const double r = profile(t);
-    return Vec3{r * cx, height * (t - 0.5), r * cz};
-  };
-  return [=](double edge) { return Sweep(at, edge, 0, cap_material); };
-}
-
-Tessellator Torus(Rng& rng, int material_count) {
-  const double major = 1;
-  const double tube_radial = rng.Uniform(0.12, 0.6), tube_vertical = tube_radial * rng.Uniform(0.5, 1.8);
-  const MaterialFunction material_at = BandMaterial(rng, material_count);
-  const SurfaceFunction at = [=](double s, double t) {
-    const auto [cx, cz] = AroundY(s);
-    const double psi = 2 * kPi * t;
-    const double ring = major + tube_radial * std::cos(psi);
-    return Vec3{ring * cx, tube_vertical * std::sin(psi), ring * cz};
-  };
-  return [=](double edge) { return Shape{ClosedGrid(at, GridEnds::kPeriodic, edge, material_at)}; };
-}
-
-// Box faces share their border points through integer lattice coordinates, so the six
-// faces meet at bit-identical positions; each face is its own surface (flat normals).
-Shape Box(Vec3 half, double edge, int material) {
-  const std::array<int, 3> n = {CountFor(2 * half.x, edge, 1), CountFor(2 * half.y, edge, 1), CountFor(2 * half.z, edge, 1)};
-  const std::array<double, 3> h = {half.x, half.y, half.z};
-  const auto point = [&](std::array<int, 3> lattice) {
-    std::array<double, 3> p{};
-    for (size_t a = 0; a < 3; ++a) p[a] = h[a] * (2.0 * lattice[a] / n[a] - 1);
-    return Vec3{p[0], p[1], p[2]};
-  };
-  Shape shape;
-  for (size_t axis = 0; axis < 3; ++axis) {
-    // (axis + 1, axis + 2) is a right-handed frame with the face normal +axis.
-    const size_t ua = (axis + 1) % 3, va = (axis + 2) % 3;
-    for (int side = 0; side < 2; ++side) {
-      Surface face;
-      for (int j = 0; j <= n[va]; ++j) {
-        for (int i = 0; i <= n[ua]; ++i) {
-          std::array<int, 3> lattice{};
-          lattice[axis] = side * n[axis];
-          lattice[ua] = i;
-          lattice[va] = j;
-          face.AddVertex(point(lattice), static_cast<double>(i) / n[ua], 1 - static_cast<double>(j) / n[va]);
-        }
-      }
-      const auto index = [&](int i, int j) { return static_cast<uint32_t>(j * (n[ua] + 1) + i); };
-      for (int j = 0; j < n[va]; ++j) {
-        for (int i = 0; i < n[ua]; ++i) {
-          const uint32_t a = index(i, j), b = index(i + 1, j), c = index(i + 1, j + 1), d = index(i, j + 1);
-          side == 1 ? face.AddQuad(a, b, c, d, material) : face.AddQuad(a, d, c, b, material);
-        }
-      }
-      shape.push_back(std::move(face));
-    }
-  }
-  return shape;
-}
-
-Tessellator Union(Rng& rng, int material_count) {
-  enum class Kind { kBox, kCylinder, kSphere };
-  struct Part {
-    Kind kind;
-    Vec3 size;  // box half extents; cylinder (radius, half height, -); sphere radii
-    Rotation rotation;
-    Vec3 offset;
-    int material;
-  };
-  std::vector<Part> parts(static_cast<size_t>(rng.Int(2, 5)));
-  for (Part& part : parts) {
-    part.kind = static_cast<Kind>(rng.Int(0, 2));
-    switch (part.kind) {
-      case Kind::kBox: part.size = {rng.Uniform(0.08, 0.45), rng.Uniform(0.08, 0.45), rng.Uniform(0.08, 0.45)}; break;
-      case Kind::kCylinder: part.size = {rng.Uniform(0.06, 0.3), rng.Uniform(0.1, 0.45), 0}; break;
-      case Kind::kSphere: {
-        const double r = rng.Uniform(0.1, 0.35);
-        part.size = {r, r * rng.Uniform(0.7, 1.3), r};
-        break;
-      }
-    }
-    if (rng.Chance(0.6)) part.rotation = RandomRotation(rng);
-    // Within a small cube, so that the parts overlap and read as one object.
-    part.offset = {rng.Uniform(-0.3, 0.3), rng.Uniform(-0.3, 0.3), rng.Uniform(-0.3, 0.3)};
-    part.material = material_count == 2 ? rng.Int(0, 1) : 0;
-  }
-  return [=](double edge) {
-    Shape shape;
-    for (const Part& part : parts) {
-      Shape piece;
-      switch (part.kind) {
-        case Kind::kBox: piece = Box(part.size, edge, part.material); break;
-        case Kind::kCylinder: {
-          const Vec3 size = part.size;
-          piece = Sweep([size](double s, double t) {
-                          const auto [cx, cz] = AroundY(s);
-                          return Vec3{size.x * cx, size.y * (2 * t - 1), size.x * cz};
-                        },
-                        edge, part.material, part.material);
-          break;
-        }
-        case Kind::kSphere: {
-          const Vec3 size = part.size;
-          const int material = part.material;
-          piece = {ClosedGrid([size](double s, double t) {
-                                const double eta = kPi * (t - 0.5);
-                                const auto [cx, cz] = AroundY(s);
-                                return Vec3{size.x * std::cos(eta) * cx, size.y * std::sin(eta), size.z * std::cos(eta) * cz};
-                              },
-                              GridEnds::kPoles, edge, [material](double, double) { return material; })};
-          break;
-        }
-      }
-      for (Surface& surface : piece) {
-        for (Vec3& p : surface.positions) p = part.rotation.Apply(p) + part.offset;
-        shape.push_back(std::move(surface));
-      }
-    }
-    return shape;
-  };
-}
-
-// Shrinks or grows the edge length until the triangle count lands in [min, max];
-// triangles scale as 1 / edge^2, and a few rounds absorb the rounding of counts.
-Result<Shape> TessellateWithin(const Tessellator& tessellate, int min_triangles, int max_triangles, double goal) {
-  double edge = 0.1;
-  for (int round = 0; round < 12; ++round) {
-    Shape shape = tessellate(edge);
-    const int64_t count = CountTriangles(shape);
-    if (count >= min_triangles && count <= max_triangles) return shape;
-    edge *= std::sqrt(static_cast<double>(count) / goal);
-  }
-  return InvalidArgumentError(fmt::format("cannot tessellate within [{}, {}] triangles", min_triangles, max_triangles));
-}
-
-// ---------------------------------------------------------------------------------------
 // Textures. Colours are drawn in sRGB (what the PNG stores); every pattern tiles.
 
 struct Rgb {
   double r = 0, g = 0, b = 0;
 };
-Rgb Mix(Rgb a, Rgb b, double t) { return {Lerp(a.r, b.r, t), Lerp(a.g, b.g, t), Lerp(a.b, b.b, t)}; }
 Rgb Scale(Rgb a, double s) { return {a.r * s, a.g * s, a.b * s}; }
 
 Rgb Hsv(double h, double s, double v) {
@@ -639,41 +150,115 @@ std::pair<Rgb, Rgb> RandomColourPair(Rng& rng) {
   }
 }
 
-Pattern RandomShapePattern(Rng& rng) {
-  const auto [a, b] = RandomColourPair(rng);
+
+// The texture of a model's material slot, by what the part is made of; `roughness` is
+// drawn with it. Patterns tile over UVs in metres (boxes) or per turn (lathes, tubes).
+Pattern SurfacePattern(Surfacing surfacing, Rng& rng, double* roughness) {
   const uint64_t noise_seed = rng.Seed();
-  const double grain = rng.Uniform(0.02, 0.08);
-  const auto grained = [=](Rgb c, double u, double v) {
-    return Scale(c, 1 + grain * TileableFbm(noise_seed, u, v, 16, 16, 2));
+  const auto grained = [noise_seed](Rgb c, double amount) {
+    return [=](double u, double v) { return Scale(c, 1 + amount * TileableFbm(noise_seed, u, v, 8, 8, 3)); };
   };
-  switch (rng.Int(0, 3)) {
-    case 0: {
-      const int cells = 2 * rng.Int(1, 8);
+  switch (surfacing) {
+    case Surfacing::kWood: {
+      const Rgb base = RandomHsv(rng, {0.04, 0.11}, {0.35, 0.75}, {0.25, 0.8});
+      const int rings = rng.Int(3, 12);
+      const double contrast = rng.Uniform(0.1, 0.3);
+      *roughness = rng.Uniform(0.5, 0.8);
       return [=](double u, double v) {
-        const bool odd = ((static_cast<int>(u * cells) + static_cast<int>(v * cells)) & 1) != 0;
-        return grained(odd ? a : b, u, v);
+        const double warp = 1.5 * TileableFbm(noise_seed, u, v, 2, 4, 3);
+        return Scale(base, 1 - contrast + contrast * (1 + std::sin(2 * kPi * (rings * u + warp))));
       };
     }
-    case 1: {
-      const int stripes = rng.Int(3, 16);
-      const int direction = rng.Int(0, 3);
-      const double duty = rng.Uniform(0.25, 0.75);
+    case Surfacing::kMetal: {
+      const Rgb base = rng.Chance(0.2) ? RandomHsv(rng, {0, 1}, {0.25, 0.6}, {0.3, 0.8})
+                                       : RandomHsv(rng, {0, 1}, {0, 0.06}, {0.4, 0.92});
+      *roughness = rng.Uniform(0.3, 0.5);
+      return [=](double u, double v) { return Scale(base, 1 + 0.07 * TileableFbm(noise_seed, u, v, 1, 32, 2)); };
+    }
+    case Surfacing::kFabric: {
+      const auto [a, b] = RandomColourPair(rng);
+      const bool plaid = rng.Chance(0.25);
+      const int cells = 2 * rng.Int(8, 24), bands = rng.Int(2, 6);
+      *roughness = rng.Uniform(0.85, 1.0);
       return [=](double u, double v) {
-        const double w = direction == 0 ? u : direction == 1 ? v : direction == 2 ? u + v : u - v;
-        return grained(Fract(w * stripes) < duty ? a : b, u, v);
+        const bool weave = ((static_cast<int>(u * cells) + static_cast<int>(v * cells)) & 1) != 0;
+        Rgb c = plaid && (Fract(u * bands) < 0.25 || Fract(v * bands) < 0.25) ? b : a;
+        return Scale(c, (weave ? 1.04 : 0.96) * (1 + 0.06 * TileableFbm(noise_seed, u, v, 8, 8, 3)));
       };
     }
-    case 2: {
-      const int period = rng.Int(2, 8);
-      const double contrast = rng.Uniform(2, 6);
+    case Surfacing::kLeather: {
+      const Rgb base = rng.Chance(0.3) ? RandomHsv(rng, {0, 1}, {0, 0.1}, {0.05, 0.2})
+                                       : RandomHsv(rng, {0.02, 0.1}, {0.3, 0.75}, {0.12, 0.5});
+      *roughness = rng.Uniform(0.4, 0.7);
+      return grained(base, 0.12);
+    }
+    case Surfacing::kRubber:
+      *roughness = 0.9;
+      return grained(Hsv(0, 0, rng.Uniform(0.04, 0.12)), 0.1);
+    case Surfacing::kScreen: {
+      const Rgb base = RandomHsv(rng, {0.55, 0.7}, {0.1, 0.5}, {0.03, 0.14});
+      *roughness = 0.2;
+      return [=](double u, double v) { return Scale(base, 0.8 + 0.4 * Fract(u + v)); };
+    }
+    case Surfacing::kGlass: {
+      const Rgb base = RandomHsv(rng, {0.2, 0.65}, {0.05, 0.5}, {0.1, 0.5});
+      *roughness = 0.1;
+      return grained(base, 0.03);
+    }
+    case Surfacing::kCeramic: {
+      const auto [a, b] = RandomColourPair(rng);
+      const Rgb white = RandomHsv(rng, {0, 1}, {0, 0.08}, {0.8, 0.97});
+      const Rgb base = rng.Chance(0.4) ? white : a;
+      const bool banded = rng.Chance(0.4);
+      const int bands = rng.Int(2, 8);
+      *roughness = rng.Uniform(0.2, 0.5);
       return [=](double u, double v) {
-        const double n = TileableFbm(noise_seed, u, v, period, period, 4);
-        return Mix(a, b, SmoothStep(std::clamp(0.5 + contrast * 0.5 * n, 0.0, 1.0)));
+        const Rgb c = banded && Fract(v * bands) < 0.2 ? b : base;
+        return Scale(c, 1 + 0.03 * TileableFbm(noise_seed, u, v, 8, 8, 2));
       };
     }
-    default:
-      return [=](double u, double v) { return grained(a, u, v); };
+    case Surfacing::kKeys: {
+      const Rgb key = Hsv(0, 0, rng.Uniform(0.05, 0.3)), gap = Scale(key, 0.5);
+      *roughness = 0.5;
+      return [=](double u, double v) {
+        return Fract(u * 15) < 0.15 || Fract(v * 5) < 0.18 ? gap : key;
+      };
+    }
+    case Surfacing::kPlastic:
+    case Surfacing::kPaint: {
+      const Rgb base = rng.Chance(0.35) ? RandomHsv(rng, {0, 1}, {0, 0.05}, {0.05, 0.95})
+                                        : RandomHsv(rng, {0, 1}, {0.3, 0.9}, {0.2, 0.9});
+      *roughness = surfacing == Surfacing::kPaint ? rng.Uniform(0.3, 0.6) : rng.Uniform(0.35, 0.7);
+      return grained(base, 0.03);
+    }
   }
+  return grained(Hsv(0, 0, 0.5), 0);
+}
+
+// Shrinks or grows the edge length until the triangle count lands in [min, max]:
+// triangles scale about as 1 / edge^2; bisection between the last edges found too fine
+// and too coarse absorbs the jumps of integer segment counts.
+Result<Shape> TessellateWithin(const ModelSpec& spec, int min_triangles, int max_triangles, double goal) {
+  const auto tessellate = [&spec](double edge) {
+    Shape shape;
+    for (const Part& part : spec.parts) {
+      Shape piece = BuildPart(part, edge);
+      for (Surface& s : piece) shape.push_back(std::move(s));
+    }
+    return shape;
+  };
+  double edge = 0.05, too_fine = 0, too_coarse = 0;
+  for (int round = 0; round < 40; ++round) {
+    Shape shape = tessellate(edge);
+    const int64_t count = CountTriangles(shape);
+    if (count >= min_triangles && count <= max_triangles) return shape;
+    if (count > max_triangles) too_fine = edge;
+    if (count < min_triangles) too_coarse = edge;
+    double next = edge * std::sqrt(static_cast<double>(count) / goal);
+    if (too_fine > 0 && too_coarse > 0 && !(next > too_fine && next < too_coarse)) next = std::sqrt(too_fine * too_coarse);
+    edge = next;
+  }
+  return InvalidArgumentError(fmt::format("cannot tessellate within [{}, {}] triangles", min_triangles, max_triangles));
 }
 
 // ---------------------------------------------------------------------------------------
@@ -712,50 +297,70 @@ std::vector<Vec3> CornerNormals(const Surface& surface) {
   return normals;
 }
 
-Node ShapeNode(const Shape& shape, const std::string& key, int material_count) {
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (const Surface& s : shape) {
-    for (const Vec3& p : s.positions) {
-      lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-      hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-    }
-  }
-  const Vec3 centre = (lo + hi) * 0.5;
-  const double scale = 1 / std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
 
+// One primitive per material slot, normalised as ShapeNetCore.v2's model_normalized.obj
+// is: the mean of the vertices at the origin and a bounding-box diagonal of 1.
+Node ShapeNode(const Shape& shape, const std::string& key, size_t material_count) {
   std::vector<std::vector<Vec3>> surface_normals;
   for (const Surface& s : shape) surface_normals.push_back(CornerNormals(s));
-
-  Node node;
-  node.name = key;
-  for (int m = 0; m < material_count; ++m) {
-    Primitive primitive;
-    primitive.material = static_cast<uint32_t>(m);
-    for (size_t si = 0; si < shape.size(); ++si) {
-      const Surface& s = shape[si];
-      const std::vector<Vec3>& normals = surface_normals[si];
-      // A vertex splits where its corners' normals differ (at creases).
-      std::map<std::pair<uint32_t, std::array<double, 3>>, uint32_t> output_vertex;
-      for (size_t t = 0; t < s.triangle_materials.size(); ++t) {
-        if (s.triangle_materials[t] != m) continue;
-        for (size_t k = 0; k < 3; ++k) {
-          const uint32_t v = s.indices[3 * t + k];
-          const Vec3 n = normals[3 * t + k];
-          const auto [it, fresh] = output_vertex.try_emplace({v, {n.x, n.y, n.z}},
-                                                             static_cast<uint32_t>(primitive.positions.size() / 3));
-          if (fresh) {
-            const Vec3 p = (s.positions[v] - centre) * scale;
-            primitive.positions.insert(primitive.positions.end(),
-                                       {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
-            primitive.normals.insert(primitive.normals.end(),
-                                     {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
-            primitive.uvs.insert(primitive.uvs.end(), {static_cast<float>(s.uvs[v][0]), static_cast<float>(s.uvs[v][1])});
-          }
-          primitive.indices.push_back(it->second);
+  struct Raw {
+    std::vector<Vec3> positions, normals;
+    std::vector<std::array<double, 2>> uvs;
+    std::vector<uint32_t> indices;
+  };
+  std::vector<Raw> raws(material_count);
+  for (size_t si = 0; si < shape.size(); ++si) {
+    const Surface& s = shape[si];
+    const std::vector<Vec3>& normals = surface_normals[si];
+    // A vertex splits where its corners' normals differ (at creases) or its material does.
+    std::vector<std::map<std::pair<uint32_t, std::array<double, 3>>, uint32_t>> output_vertex(material_count);
+    for (size_t t = 0; t < s.triangle_materials.size(); ++t) {
+      const auto m = static_cast<size_t>(s.triangle_materials[t]);
+      Raw& raw = raws[m];
+      for (size_t k = 0; k < 3; ++k) {
+        const uint32_t v = s.indices[3 * t + k];
+        const Vec3 n = normals[3 * t + k];
+        const auto [it, fresh] =
+            output_vertex[m].try_emplace({v, {n.x, n.y, n.z}}, static_cast<uint32_t>(raw.positions.size()));
+        if (fresh) {
+          raw.positions.push_back(s.positions[v]);
+          raw.normals.push_back(n);
+          raw.uvs.push_back(s.uvs[v]);
         }
+        raw.indices.push_back(it->second);
       }
     }
-    if (!primitive.indices.empty()) node.primitives.push_back(std::move(primitive));
+  }
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300}, sum;
+  double count = 0;
+  for (const Raw& raw : raws) {
+    for (const Vec3& p : raw.positions) {
+      lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+      hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+      sum = sum + p;
+      count += 1;
+    }
+  }
+  const Vec3 centre = sum * (1 / count);
+  const double scale = 1 / Length(hi - lo);
+  Node node;
+  node.name = key;
+  for (size_t m = 0; m < material_count; ++m) {
+    const Raw& raw = raws[m];
+    if (raw.indices.empty()) continue;
+    Primitive primitive;
+    primitive.material = static_cast<uint32_t>(m);
+    for (size_t v = 0; v < raw.positions.size(); ++v) {
+      const Vec3 p = (raw.positions[v] - centre) * scale;
+      primitive.positions.insert(primitive.positions.end(),
+                                 {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
+      const Vec3& n = raw.normals[v];
+      primitive.normals.insert(primitive.normals.end(),
+                               {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
+      primitive.uvs.insert(primitive.uvs.end(), {static_cast<float>(raw.uvs[v][0]), static_cast<float>(raw.uvs[v][1])});
+    }
+    primitive.indices = raw.indices;
+    node.primitives.push_back(std::move(primitive));
   }
   return node;
 }
@@ -764,11 +369,21 @@ std::string SeedHex(uint64_t seed) { return fmt::format("{:#018x}", seed); }
 
 // ---------------------------------------------------------------------------------------
 // Rooms.
+//
+// A room is a 2.5D cell complex: the plan is cut by every feature's edges into cells
+// (at most about a metre across), and each cell is solid or open between a floor height
+// and a ceiling height. Floors, ceilings and the vertical faces between a cell and its
+// neighbours (walls, risers, ceiling drops) then form one closed, inward-wound shell,
+// provided no two solid regions touch only at a corner (features keep clear of each
+// other for that). Vertical faces take every height any neighbouring cell breaks at,
+// so faces meet without T-junctions.
 
-// Grid lines along one axis: the plan's key coordinates, each interval split into steps of
-// at most about a metre. Floor, walls and ceiling all use these same doubles, so they meet
-// without T-junctions or cracks.
-std::vector<double> GridLines(const std::vector<double>& keys) {
+// Grid lines along one axis: the sorted keys, each interval split into steps of at most
+// about a metre.
+std::vector<double> GridLines(std::vector<double> keys) {
+  std::sort(keys.begin(), keys.end());
+  // Sums of snapped values can miss the 5 cm grid by an ulp: one line, not a sliver.
+  keys.erase(std::unique(keys.begin(), keys.end(), [](double a, double b) { return b - a < 1e-6; }), keys.end());
   std::vector<double> lines;
   for (size_t k = 0; k + 1 < keys.size(); ++k) {
     const int steps = std::max(1, static_cast<int>(std::ceil(keys[k + 1] - keys[k] - 1e-9)));
@@ -780,109 +395,474 @@ std::vector<double> GridLines(const std::vector<double>& keys) {
 
 double RoundToCentimetre(double metres) { return std::round(metres * 100) / 100; }
 
+// Feature coordinates sit on a 5 cm grid: no sliver cells between nearly equal edges.
+double Snap(double metres) { return std::round(metres * 20) / 20; }
+
+struct Rect {
+  double x0 = 0, z0 = 0, x1 = 0, z1 = 0;
+  bool Contains(double x, double z) const { return x > x0 && x < x1 && z > z0 && z < z1; }
+  // Closer than `margin` to `o` (or overlapping).
+  bool Near(const Rect& o, double margin) const {
+    return x0 < o.x1 + margin && o.x0 < x1 + margin && z0 < o.z1 + margin && o.z0 < z1 + margin;
+  }
+};
+
 struct RoomPlan {
   double width = 0, depth = 0, height = 0;  // bounding box, metres
-  bool l_shaped = false;
-  std::vector<double> x_lines, y_lines, z_lines;
-  std::function<bool(double x, double z)> inside;  // for cell centres
+  std::string footprint = "box";            // box, L, U, T
+  std::vector<std::string> features;
+  std::vector<Rect> notches, pillars, thick_walls;
+  struct Level {
+    Rect r;
+    double floor = 0;
+    bool wall_top = false;  // a half-height wall: its top belongs to the wall, not the floor
+  };
+  std::vector<Level> levels;
+  struct Lowered {
+    Rect r;
+    double ceiling = 0;
+  };
+  std::vector<Lowered> lowered;
+  struct Opening {
+    Rect r;
+    double sill = 0, lintel = 0;
+    bool window = false;
+  };
+  std::vector<Opening> openings;
+  double slope_from_x = 0, slope = 0;  // ceiling = height - slope * max(0, x - slope_from_x)
+  struct Shelf {
+    Vec3 centre, half;
+  };
+  std::vector<Shelf> shelves;
+  std::vector<double> x_lines, z_lines, y_lines;
+
+  double CeilingAt(double x) const { return height - slope * std::max(0.0, x - slope_from_x); }
+  bool Solid(double x, double z) const {
+    if (!(x > -width / 2 && x < width / 2 && z > -depth / 2 && z < depth / 2)) return true;
+    for (const Rect& r : notches) {
+      if (r.Contains(x, z)) return true;
+    }
+    for (const Rect& r : pillars) {
+      if (r.Contains(x, z)) return true;
+    }
+    for (const Rect& r : thick_walls) {
+      if (r.Contains(x, z) && OpeningAt(x, z) == nullptr) return true;
+    }
+    return false;
+  }
+  const Opening* OpeningAt(double x, double z) const {
+    for (const Opening& o : openings) {
+      if (o.r.Contains(x, z)) return &o;
+    }
+    return nullptr;
+  }
+  // Solid features, for keeping new ones clear of them.
+  bool Clear(const Rect& r, double margin) const {
+    for (const std::vector<Rect>* rects : {&notches, &pillars, &thick_walls}) {
+      for (const Rect& o : *rects) {
+        if (r.Near(o, margin)) return false;
+      }
+    }
+    for (const Level& l : levels) {
+      if (r.Near(l.r, margin)) return false;
+    }
+    return true;
+  }
+};
+
+// One cell of the complex: open between floor and the ceiling at its corners.
+struct Cell {
+  bool open = false;
+  bool opening = false;  // a door or window reveal: its faces belong to the wall
+  bool window = false;
+  bool wall_top = false;  // the top of a half-height wall
+  double floor = 0, cap = 1e300;
 };
 
 RoomPlan RandomPlan(Rng& rng) {
   RoomPlan plan;
-  plan.width = RoundToCentimetre(rng.Uniform(4, 16));
-  plan.depth = RoundToCentimetre(rng.Uniform(4, 16));
-  plan.height = RoundToCentimetre(rng.Uniform(2.5, 4));
-  plan.l_shaped = rng.Chance(0.5);
-  std::vector<double> x_keys = {-plan.width / 2, plan.width / 2}, z_keys = {-plan.depth / 2, plan.depth / 2};
-  if (plan.l_shaped) {
-    // The removed corner's inner edge: 35-60% of the way across from that corner.
-    const int corner = rng.Int(0, 3);
-    const double sx = corner & 1 ? 1.0 : -1.0, sz = corner & 2 ? 1.0 : -1.0;
-    const double notch_x = RoundToCentimetre(sx * (plan.width / 2 - rng.Uniform(0.35, 0.6) * plan.width));
-    const double notch_z = RoundToCentimetre(sz * (plan.depth / 2 - rng.Uniform(0.35, 0.6) * plan.depth));
-    x_keys.insert(x_keys.begin() + 1, notch_x);
-    z_keys.insert(z_keys.begin() + 1, notch_z);
-    plan.inside = [=](double x, double z) { return !(sx * (x - notch_x) > 0 && sz * (z - notch_z) > 0); };
-  } else {
-    plan.inside = [](double, double) { return true; };
+  // SceneNet's rooms (the bathroom layout of the shared data: 2.7 x 5.9 m, 2.7 m high;
+  // bedrooms and offices up to about 7 m): 2.5-7 m across, up to 2.5:1, 2.4-3.1 m high.
+  plan.width = 2 * Snap(rng.Uniform(2.5, 7) / 2);
+  plan.depth = 2 * Snap(rng.Uniform(2.5, 7) / 2);
+  if (plan.depth > 2.5 * plan.width) plan.depth = 2 * Snap(1.25 * plan.width);
+  if (plan.width > 2.5 * plan.depth) plan.width = 2 * Snap(1.25 * plan.depth);
+  plan.height = Snap(rng.Uniform(2.4, 3.1));
+  const double hx = plan.width / 2, hz = plan.depth / 2;
+  // Footprint: notches out of the bounding box.
+  const int footprint = rng.Int(0, 4);  // box (x2), L, U, T
+  const int side = rng.Int(0, 3);       // which side a U or T opens to, which corner an L loses
+  const double a = Snap(rng.Uniform(0.3, 0.45)), b = Snap(rng.Uniform(0.35, 0.55));
+  const auto side_rect = [&](double from, double to, double deep) {
+    // A rectangle on side `side`, spanning [from, to] along it (fractions) and `deep` in.
+    switch (side) {
+      case 0: return Rect{Snap(-hx + from * plan.width), -hz - 1, Snap(-hx + to * plan.width), Snap(-hz + deep * plan.depth)};
+      case 1: return Rect{Snap(-hx + from * plan.width), Snap(hz - deep * plan.depth), Snap(-hx + to * plan.width), hz + 1};
+      case 2: return Rect{-hx - 1, Snap(-hz + from * plan.depth), Snap(-hx + deep * plan.width), Snap(-hz + to * plan.depth)};
+      default: return Rect{Snap(hx - deep * plan.width), Snap(-hz + from * plan.depth), hx + 1, Snap(-hz + to * plan.depth)};
+    }
+  };
+  if (footprint == 2) {
+    plan.footprint = "L";
+    plan.notches.push_back(side_rect(1 - a - 0.1, 2, b));
+  } else if (footprint == 3) {
+    plan.footprint = "U";
+    plan.notches.push_back(side_rect(0.5 - a / 2, 0.5 + a / 2, b));
+  } else if (footprint == 4) {
+    plan.footprint = "T";
+    plan.notches.push_back(side_rect(-1, a * 0.8, b));
+    plan.notches.push_back(side_rect(1 - a * 0.8, 2, b));
   }
+  const auto inside_all = [&](const Rect& r) {
+    for (int i = 0; i <= 4; ++i) {
+      for (int k = 0; k <= 4; ++k) {
+        if (plan.Solid(Lerp(r.x0, r.x1, (i + 0.5) / 5.5), Lerp(r.z0, r.z1, (k + 0.5) / 5.5))) return false;
+      }
+    }
+    return r.x0 > -hx && r.x1 < hx && r.z0 > -hz && r.z1 < hz;
+  };
+  // A thick wall (the reveals of a door and a window) along one bounding side.
+  if (rng.Chance(0.6)) {
+    const double t = Snap(rng.Uniform(0.15, 0.3));
+    const int wall = rng.Int(0, 3);
+    const bool along_x = wall < 2;
+    const double len = along_x ? plan.width : plan.depth, sign = wall % 2 == 0 ? -1 : 1;
+    const Rect strip = along_x ? Rect{-hx - 1, sign < 0 ? -hz - 1 : hz - t, hx + 1, sign < 0 ? -hz + t : hz + 1}
+                         : Rect{sign < 0 ? -hx - 1 : hx - t, -hz - 1, sign < 0 ? -hx + t : hx + 1, hz + 1};
+    plan.thick_walls.push_back(strip);
+    plan.features.push_back("thick_wall");
+    // Openings at positions along the strip where the room is open behind it.
+    for (int k = 0; k < 2; ++k) {
+      const bool window = k == 1 || rng.Chance(0.3);
+      const double w = Snap(window ? rng.Uniform(0.8, 1.8) : rng.Uniform(0.8, 1.0));
+      const double at = Snap(rng.Uniform(-len / 2 + 0.4, len / 2 - 0.4 - w));
+      Rect r = along_x ? Rect{at, strip.z0, at + w, strip.z1} : Rect{strip.x0, at, strip.x1, at + w};
+      const Rect probe = along_x ? Rect{at, sign < 0 ? -hz + t : hz - t - 0.6, at + w, sign < 0 ? -hz + t + 0.6 : hz - t}
+                                 : Rect{sign < 0 ? -hx + t : hx - t - 0.6, at, sign < 0 ? -hx + t + 0.6 : hx - t, at + w};
+      bool fine = inside_all(probe);
+      for (const RoomPlan::Opening& o : plan.openings) fine = fine && !r.Near(o.r, 0.3);
+      for (const Rect& n : plan.notches) fine = fine && !r.Near(n, 0.3);
+      if (!fine) continue;
+      const double sill = window ? Snap(rng.Uniform(0.7, 1.0)) : 0.0;
+      const double lintel = Snap(window ? rng.Uniform(1.9, 2.3) : rng.Uniform(1.95, 2.15));
+      plan.openings.push_back({r, sill, std::min(lintel, plan.height - 0.2), window});
+      plan.features.push_back(window ? "window" : "door");
+    }
+  }
+  // An alcove: a recess in one wall, made by notching the wall on both sides of it.
+  if (rng.Chance(0.35)) {
+    const double deep = Snap(rng.Uniform(0.4, 0.9)), w = Snap(rng.Uniform(0.9, 2.0));
+    const int wall = rng.Int(0, 3);
+    const bool along_x = wall < 2;
+    const double len = along_x ? plan.width : plan.depth, sign = wall % 2 == 0 ? -1 : 1;
+    const double at = Snap(rng.Uniform(-len / 2 + 0.5, len / 2 - 0.5 - w));
+    const double e = along_x ? hz : hx;
+    const auto strip = [&](double from, double to) {
+      return along_x ? Rect{from, sign < 0 ? -e - 1 : e - deep, to, sign < 0 ? -e + deep : e + 1}
+                     : Rect{sign < 0 ? -e - 1 : e - deep, from, sign < 0 ? -e + deep : e + 1, to};
+    };
+    const Rect left = strip(-len / 2 - 1, at), right = strip(at + w, len / 2 + 1);
+    if (plan.Clear(strip(at - 0.3, at + w + 0.3), 0.3)) {
+      plan.notches.push_back(left);
+      plan.notches.push_back(right);
+      plan.features.push_back("alcove");
+      if (rng.Chance(0.5)) {
+        plan.lowered.push_back({strip(at, at + w), Snap(plan.height - rng.Uniform(0.3, 0.6))});
+      }
+    }
+  }
+  // Raised floor in a corner, with a step in front of it or not.
+  if (rng.Chance(0.55)) {
+    const double pw = Snap(rng.Uniform(1.0, 0.5 * plan.width)), pd = Snap(rng.Uniform(1.0, 0.5 * plan.depth));
+    const int corner = rng.Int(0, 3);
+    const double sx = corner & 1 ? 1 : -1, sz = corner & 2 ? 1 : -1;
+    const Rect r{sx < 0 ? -hx - 1 : hx - pw, sz < 0 ? -hz - 1 : hz - pd, sx < 0 ? -hx + pw : hx + 1, sz < 0 ? -hz + pd : hz + 1};
+    const double rise = Snap(rng.Uniform(0.15, 0.5));
+    const Rect core{std::max(r.x0, -hx + 0.01), std::max(r.z0, -hz + 0.01), std::min(r.x1, hx - 0.01), std::min(r.z1, hz - 0.01)};
+    const bool step = rise >= 0.3 && rng.Chance(0.6);
+    const double s = 0.35;
+    const Rect front{sx < 0 ? r.x1 : r.x0 - s, r.z0, sx < 0 ? r.x1 + s : r.x0, r.z1};
+    const Rect reach{std::min(core.x0, front.x0), core.z0, std::max(core.x1, front.x1), core.z1};
+    if (inside_all(step ? reach : core) && plan.Clear(step ? reach : core, 0.35)) {
+      plan.levels.push_back({r, rise});
+      plan.features.push_back("platform");
+      if (step) {
+        plan.levels.push_back({front, Snap(rise / 2)});
+        plan.features.push_back("step");
+      }
+    }
+  }
+  // What stands in the room between a camera and what it looks at: pillars and
+  // half-height walls in the middle part of the room, wing walls out of a wall.
+  // Sizes follow the room's: rooms are stretched to 12 x 12 m for layouts, and a pillar
+  // wider than about a fifteenth of the room then fills half a frame.
+  const int occluders = rng.Int(2, 4);
+  int placed = 0;
+  for (int k = 0; k < 16 && placed < occluders; ++k) {
+    const double pick = rng.Uniform();
+    const int kind = pick < 0.45 ? 0 : pick < 0.75 ? 2 : 1;
+    if (kind == 0) {
+      const double s = std::max(0.15, Snap(rng.Uniform(0.05, 0.08) * std::min(plan.width, plan.depth)));
+      const double x = Snap(rng.Uniform(-hx * 0.4, hx * 0.4)), z = Snap(rng.Uniform(-hz * 0.4, hz * 0.4));
+      const Rect r{x - s / 2, z - s / 2, x + s / 2, z + s / 2};
+      if (inside_all(Rect{r.x0 - 0.5, r.z0 - 0.5, r.x1 + 0.5, r.z1 + 0.5}) && plan.Clear(r, 0.5)) {
+        plan.pillars.push_back(r);
+        plan.features.push_back("pillar");
+        ++placed;
+      }
+      continue;
+    }
+    // A wall segment across x or z: from a bounding wall (a wing wall, full height) or
+    // free-standing (a half-height wall).
+    const bool wing = kind == 1, along_x = rng.Chance(0.5);
+    const double t = Snap(rng.Uniform(0.1, 0.15)), frac = rng.Uniform(0.2, 0.45), at = rng.Uniform(-0.3, 0.3);
+    const double e_along = along_x ? hx : hz, e_across = along_x ? hz : hx;
+    const double len = Snap(2 * e_along * frac), pos = Snap(at * e_across);
+    const bool from_low = rng.Chance(0.5);
+    const double from = wing ? (from_low ? -e_along - 1 : e_along - len) : Snap(rng.Uniform(-0.3, 0.3) * e_along - len / 2);
+    const double to = wing ? (from_low ? -e_along + len : e_along + 1) : from + len;
+    const Rect r = along_x ? Rect{from, pos - t / 2, to, pos + t / 2} : Rect{pos - t / 2, from, pos + t / 2, to};
+    const Rect core{std::max(r.x0, -hx + 0.01), std::max(r.z0, -hz + 0.01), std::min(r.x1, hx - 0.01), std::min(r.z1, hz - 0.01)};
+    const Rect room_side = along_x ? Rect{core.x0, core.z0 - 0.5, core.x1, core.z1 + 0.5} : Rect{core.x0 - 0.5, core.z0, core.x1 + 0.5, core.z1};
+    if (!inside_all(room_side) || !plan.Clear(core, 0.4)) continue;
+    ++placed;
+    if (wing) {
+      plan.pillars.push_back(r);
+      plan.features.push_back("wing_wall");
+    } else {
+      plan.levels.push_back({r, Snap(rng.Uniform(0.6, 1.0)), true});
+      plan.features.push_back("half_wall");
+    }
+  }
+  // Ceiling: a slope along x, a lowered band (soffit), beams across.
+  if (rng.Chance(0.25)) {
+    plan.slope_from_x = Snap(rng.Uniform(-hx, 0));
+    plan.slope = std::min(rng.Uniform(0.15, 0.35), (plan.height - 2.0) / (hx - plan.slope_from_x));
+    plan.features.push_back("sloped_ceiling");
+  }
+  if (rng.Chance(0.3)) {
+    const double w = Snap(rng.Uniform(0.6, 1.5));
+    const bool along_x = rng.Chance(0.5), low = rng.Chance(0.5);
+    const double e = along_x ? hz : hx;
+    const Rect band = along_x ? Rect{-hx - 1, low ? -e - 1 : e - w, hx + 1, low ? -e + w : e + 1}
+                              : Rect{low ? -e - 1 : e - w, -hz - 1, low ? -e + w : e + 1, hz + 1};
+    plan.lowered.push_back({band, Snap(plan.height - rng.Uniform(0.25, 0.5))});
+    plan.features.push_back("soffit");
+  }
+  const int beams = rng.Chance(0.35) ? rng.Int(1, 3) : 0;
+  for (int k = 0; k < beams; ++k) {
+    const double w = Snap(rng.Uniform(0.2, 0.4)), x = Snap(-hx + plan.width * (k + 1) / (beams + 1));
+    plan.lowered.push_back({Rect{x - w / 2, -hz - 1, x + w / 2, hz + 1}, Snap(plan.height - rng.Uniform(0.2, 0.4))});
+    plan.features.push_back("beam");
+  }
+  std::vector<double> x_keys = {-hx, hx}, z_keys = {-hz, hz};
+  const auto add_keys = [&](const Rect& r) {
+    for (double x : {r.x0, r.x1}) {
+      if (x > -hx && x < hx) x_keys.push_back(x);
+    }
+    for (double z : {r.z0, r.z1}) {
+      if (z > -hz && z < hz) z_keys.push_back(z);
+    }
+  };
+  for (const std::vector<Rect>* rects : {&plan.notches, &plan.pillars, &plan.thick_walls}) {
+    for (const Rect& r : *rects) add_keys(r);
+  }
+  for (const RoomPlan::Level& l : plan.levels) add_keys(l.r);
+  for (const RoomPlan::Lowered& l : plan.lowered) add_keys(l.r);
+  for (const RoomPlan::Opening& o : plan.openings) add_keys(o.r);
+  if (plan.slope > 0) x_keys.push_back(plan.slope_from_x);
   plan.x_lines = GridLines(x_keys);
   plan.z_lines = GridLines(z_keys);
   plan.y_lines = GridLines({0.0, plan.height});
+  // Shelves on walls that are plain from floor to ceiling over their length.
+  const int shelves = rng.Int(0, 2);
+  for (int k = 0; k < shelves; ++k) {
+    const double len = Snap(rng.Uniform(0.6, 1.4)), deep = rng.Uniform(0.2, 0.3), y = Snap(rng.Uniform(1.0, 1.8));
+    const int wall = rng.Int(0, 3);
+    const bool along_x = wall < 2;
+    const double span = along_x ? plan.width : plan.depth, sign = wall % 2 == 0 ? -1 : 1;
+    const double at = rng.Uniform(-span / 2 + 0.3, span / 2 - 0.3 - len);
+    const double e = (along_x ? hz : hx) + 0.005;
+    const Rect foot = along_x ? Rect{at, sign < 0 ? -e : e - deep, at + len, sign < 0 ? -e + deep : e}
+                              : Rect{sign < 0 ? -e : e - deep, at, sign < 0 ? -e + deep : e, at + len};
+    // Against the bounding wall: the cells in front of it are open, plain floor.
+    bool fine = y < plan.CeilingAt(hx) - 0.4;
+    for (int i = 0; i <= 8 && fine; ++i) {
+      const double s = (i + 0.5) / 9;
+      const double px = along_x ? Lerp(foot.x0, foot.x1, s) : (sign < 0 ? -hx + 0.05 : hx - 0.05);
+      const double pz = along_x ? (sign < 0 ? -hz + 0.05 : hz - 0.05) : Lerp(foot.z0, foot.z1, s);
+      fine = !plan.Solid(px, pz) && plan.OpeningAt(px, pz) == nullptr;
+      for (const RoomPlan::Level& l : plan.levels) fine = fine && !l.r.Near(foot, 0.3);
+      for (const RoomPlan::Lowered& l : plan.lowered) fine = fine && !(l.r.Near(foot, 0.1) && l.ceiling < y + 0.4);
+    }
+    for (const RoomPlan::Shelf& other : plan.shelves) {
+      fine = fine && std::fabs(other.centre.y - y) + std::fabs(other.centre.x - (foot.x0 + foot.x1) / 2) +
+                             std::fabs(other.centre.z - (foot.z0 + foot.z1) / 2) > 0.5;
+    }
+    if (!fine) continue;
+    plan.shelves.push_back({{(foot.x0 + foot.x1) / 2, y, (foot.z0 + foot.z1) / 2},
+                            {(foot.x1 - foot.x0) / 2, 0.015, (foot.z1 - foot.z0) / 2}});
+    plan.features.push_back("shelf");
+  }
   return plan;
 }
 
-// Floor (normal +Y) or ceiling (normal -Y) over the plan's cells; UVs are metres.
-Primitive HorizontalSurface(const RoomPlan& plan, bool ceiling, uint32_t material) {
-  Primitive p;
-  p.material = material;
-  const double y = ceiling ? plan.height : 0.0;
-  const float ny = ceiling ? -1.0f : 1.0f;
-  const auto add = [&](double x, double z) {
-    p.positions.insert(p.positions.end(), {static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)});
-    p.normals.insert(p.normals.end(), {0.0f, ny, 0.0f});
-    p.uvs.insert(p.uvs.end(), {static_cast<float>(x), static_cast<float>(z)});
-    return static_cast<uint32_t>(p.positions.size() / 3 - 1);
-  };
-  std::map<std::pair<size_t, size_t>, uint32_t> vertex;
-  const auto at = [&](size_t i, size_t k) {
-    const auto [it, fresh] = vertex.try_emplace({i, k}, 0);
-    if (fresh) it->second = add(plan.x_lines[i], plan.z_lines[k]);
-    return it->second;
-  };
-  for (size_t i = 0; i + 1 < plan.x_lines.size(); ++i) {
-    for (size_t k = 0; k + 1 < plan.z_lines.size(); ++k) {
-      if (!plan.inside(0.5 * (plan.x_lines[i] + plan.x_lines[i + 1]), 0.5 * (plan.z_lines[k] + plan.z_lines[k + 1]))) continue;
-      const uint32_t a = at(i, k), b = at(i + 1, k), c = at(i + 1, k + 1), d = at(i, k + 1);
-      if (ceiling) {
-        p.indices.insert(p.indices.end(), {a, b, c, a, c, d});
-      } else {
-        p.indices.insert(p.indices.end(), {a, c, b, a, d, c});
+// Triangles of one structure class, each with its own three vertices and flat normal.
+struct ShellBuilder {
+  Primitive floor, wall, ceiling;
+  void Add(Primitive& p, Vec3 a, Vec3 b, Vec3 c, std::array<double, 2> ua, std::array<double, 2> ub,
+           std::array<double, 2> uc) {
+    const Vec3 n = Normalized(Cross(b - a, c - a));
+    for (const auto& [q, uv] : {std::pair{a, ua}, std::pair{b, ub}, std::pair{c, uc}}) {
+      p.positions.insert(p.positions.end(), {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)});
+      p.normals.insert(p.normals.end(), {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
+      p.uvs.insert(p.uvs.end(), {static_cast<float>(uv[0]), static_cast<float>(uv[1])});
+      p.indices.push_back(static_cast<uint32_t>(p.positions.size() / 3 - 1));
+    }
+  }
+};
+
+void BuildShell(const RoomPlan& plan, ShellBuilder& out) {
+  const size_t nx = plan.x_lines.size() - 1, nz = plan.z_lines.size() - 1;
+  std::vector<Cell> cells(nx * nz);
+  for (size_t i = 0; i < nx; ++i) {
+    for (size_t k = 0; k < nz; ++k) {
+      const double cx = 0.5 * (plan.x_lines[i] + plan.x_lines[i + 1]), cz = 0.5 * (plan.z_lines[k] + plan.z_lines[k + 1]);
+      Cell& c = cells[i * nz + k];
+      c.open = !plan.Solid(cx, cz);
+      if (!c.open) continue;
+      if (const RoomPlan::Opening* o = plan.OpeningAt(cx, cz)) {
+        c.opening = true;
+        c.window = o->window;
+        c.floor = o->sill;
+        c.cap = o->lintel;
+        continue;
+      }
+      for (const RoomPlan::Level& l : plan.levels) {
+        if (!l.r.Contains(cx, cz) || l.floor < c.floor) continue;
+        c.floor = l.floor;
+        c.wall_top = l.wall_top;
+      }
+      for (const RoomPlan::Lowered& l : plan.lowered) {
+        if (l.r.Contains(cx, cz)) c.cap = std::min(c.cap, l.ceiling);
       }
     }
   }
-  return p;
-}
-
-// One wall panel per boundary side of every plan cell, facing into that cell. u runs
-// left to right as seen from inside the room, v down from the ceiling, both in metres.
-Primitive Walls(const RoomPlan& plan, uint32_t material) {
-  Primitive p;
-  p.material = material;
-  const size_t nx = plan.x_lines.size() - 1, nz = plan.z_lines.size() - 1;
-  const auto cell_inside = [&](int64_t i, int64_t k) {
-    if (i < 0 || k < 0 || i >= static_cast<int64_t>(nx) || k >= static_cast<int64_t>(nz)) return false;
-    const auto ui = static_cast<size_t>(i), uk = static_cast<size_t>(k);
-    return plan.inside(0.5 * (plan.x_lines[ui] + plan.x_lines[ui + 1]), 0.5 * (plan.z_lines[uk] + plan.z_lines[uk + 1]));
+  const auto cell = [&](int64_t i, int64_t k) -> const Cell* {
+    if (i < 0 || k < 0 || i >= static_cast<int64_t>(nx) || k >= static_cast<int64_t>(nz)) return nullptr;
+    const Cell& c = cells[static_cast<size_t>(i) * nz + static_cast<size_t>(k)];
+    return c.open ? &c : nullptr;
   };
-  const auto panel = [&](double ax, double az, double bx, double bz, float normal_x, float normal_z) {
-    // A to B runs along (-n) x +Y, the viewer's right, so (B - A) x +Y is the normal n.
-    const double right_x = normal_z, right_z = -normal_x;
-    const auto base = static_cast<uint32_t>(p.positions.size() / 3);
-    for (const double y : plan.y_lines) {
-      for (const auto& [x, z] : {std::pair{ax, az}, std::pair{bx, bz}}) {
-        p.positions.insert(p.positions.end(), {static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)});
-        p.normals.insert(p.normals.end(), {normal_x, 0.0f, normal_z});
-        p.uvs.insert(p.uvs.end(), {static_cast<float>(x * right_x + z * right_z), static_cast<float>(plan.height - y)});
+  const auto ceiling = [&](const Cell& c, size_t corner_i) { return std::min(c.cap, plan.CeilingAt(plan.x_lines[corner_i])); };
+  // Heights at which faces break on the vertical line through grid point (i, k).
+  const auto breaks = [&](size_t i, size_t k) {
+    std::vector<double> ys;
+    for (int64_t di = -1; di <= 0; ++di) {
+      for (int64_t dk = -1; dk <= 0; ++dk) {
+        if (const Cell* c = cell(static_cast<int64_t>(i) + di, static_cast<int64_t>(k) + dk)) {
+          ys.push_back(c->floor);
+          ys.push_back(ceiling(*c, i));
+        }
       }
     }
-    for (uint32_t r = 0; r + 1 < plan.y_lines.size(); ++r) {
-      const uint32_t a0 = base + 2 * r, b0 = a0 + 1, a1 = a0 + 2, b1 = a0 + 3;
-      p.indices.insert(p.indices.end(), {a0, b0, b1, a0, b1, a1});
+    // Panel lines, except one an ulp from a floor or ceiling height: that would be a sliver.
+    const size_t heights = ys.size();
+    for (const double y : plan.y_lines) {
+      bool near = false;
+      for (size_t h = 0; h < heights; ++h) near = near || std::fabs(ys[h] - y) < 1e-6;
+      if (!near) ys.push_back(y);
+    }
+    std::sort(ys.begin(), ys.end());
+    ys.erase(std::unique(ys.begin(), ys.end()), ys.end());
+    return ys;
+  };
+  // A vertical face from grid point p to grid point q (the viewer's right seen from the
+  // open side), over [lo, hi] at each end, zipped between the two lines' break heights.
+  const auto vertical = [&](Primitive& prim, size_t pi, size_t pk, size_t qi, size_t qk, double lo_p, double hi_p,
+                            double lo_q, double hi_q) {
+    if (!(hi_p > lo_p) && !(hi_q > lo_q)) return;
+    const Vec3 p{plan.x_lines[pi], 0, plan.z_lines[pk]}, q{plan.x_lines[qi], 0, plan.z_lines[qk]};
+    const auto range = [](const std::vector<double>& ys, double lo, double hi) {
+      std::vector<double> r;
+      for (double y : ys) {
+        if (y >= lo && y <= hi) r.push_back(y);
+      }
+      return r;
+    };
+    const std::vector<double> left = range(breaks(pi, pk), lo_p, hi_p), right = range(breaks(qi, qk), lo_q, hi_q);
+    const Vec3 along = q - p;
+    const double right_x = along.x / Length(along), right_z = along.z / Length(along);
+    const auto at = [&](const Vec3& base, double y) { return Vec3{base.x, y, base.z}; };
+    const auto uv = [&](const Vec3& v) { return std::array<double, 2>{v.x * right_x + v.z * right_z, plan.height - v.y}; };
+    size_t a = 0, b = 0;
+    while (a + 1 < left.size() || b + 1 < right.size()) {
+      const bool advance_left = b + 1 >= right.size() || (a + 1 < left.size() && left[a + 1] <= right[b + 1]);
+      const Vec3 pa = at(p, left[a]), qb = at(q, right[b]);
+      const Vec3 next = advance_left ? at(p, left[a + 1]) : at(q, right[b + 1]);
+      out.Add(prim, pa, qb, next, uv(pa), uv(qb), uv(next));
+      advance_left ? ++a : ++b;
     }
   };
   for (size_t i = 0; i < nx; ++i) {
     for (size_t k = 0; k < nz; ++k) {
-      const auto si = static_cast<int64_t>(i), sk = static_cast<int64_t>(k);
-      if (!cell_inside(si, sk)) continue;
+      const Cell* c = cell(static_cast<int64_t>(i), static_cast<int64_t>(k));
+      if (c == nullptr) continue;
       const double x0 = plan.x_lines[i], x1 = plan.x_lines[i + 1], z0 = plan.z_lines[k], z1 = plan.z_lines[k + 1];
-      if (!cell_inside(si - 1, sk)) panel(x0, z1, x0, z0, 1, 0);
-      if (!cell_inside(si + 1, sk)) panel(x1, z0, x1, z1, -1, 0);
-      if (!cell_inside(si, sk - 1)) panel(x0, z0, x1, z0, 0, 1);
-      if (!cell_inside(si, sk + 1)) panel(x1, z1, x0, z1, 0, -1);
+      // Floor (up) and ceiling (down); UVs in metres.
+      Primitive& floor = c->window || c->wall_top ? out.wall : out.floor;
+      const Vec3 f00{x0, c->floor, z0}, f10{x1, c->floor, z0}, f11{x1, c->floor, z1}, f01{x0, c->floor, z1};
+      out.Add(floor, f00, f11, f10, {x0, z0}, {x1, z1}, {x1, z0});
+      out.Add(floor, f00, f01, f11, {x0, z0}, {x0, z1}, {x1, z1});
+      Primitive& top = c->opening ? out.wall : out.ceiling;
+      const double c0 = ceiling(*c, i), c1 = ceiling(*c, i + 1);
+      const Vec3 t00{x0, c0, z0}, t10{x1, c1, z0}, t11{x1, c1, z1}, t01{x0, c0, z1};
+      out.Add(top, t00, t10, t11, {x0, z0}, {x1, z0}, {x1, z1});
+      out.Add(top, t00, t11, t01, {x0, z0}, {x1, z1}, {x0, z1});
+      // The four sides: (neighbour offset, side from p to q as seen from inside this cell).
+      struct Side {
+        int64_t di, dk;
+        size_t pi, pk, qi, qk;
+      };
+      const std::array<Side, 4> sides = {Side{-1, 0, i, k + 1, i, k}, Side{1, 0, i + 1, k, i + 1, k + 1},
+                                         Side{0, -1, i, k, i + 1, k}, Side{0, 1, i + 1, k + 1, i, k + 1}};
+      for (const Side& s : sides) {
+        const Cell* n = cell(static_cast<int64_t>(i) + s.di, static_cast<int64_t>(k) + s.dk);
+        const double top_p = ceiling(*c, s.pi), top_q = ceiling(*c, s.qi);
+        if (n == nullptr) {
+          vertical(out.wall, s.pi, s.pk, s.qi, s.qk, c->floor, top_p, c->floor, top_q);
+          continue;
+        }
+        const bool reveal = c->opening || n->opening;
+        // The neighbour's floor above ours: a riser facing us (a step, or the low wall
+        // of a raised area).
+        if (n->floor > c->floor) {
+          Primitive& riser = reveal || n->floor - c->floor > 0.2 ? out.wall : out.floor;
+          vertical(riser, s.pi, s.pk, s.qi, s.qk, c->floor, n->floor, c->floor, n->floor);
+        }
+        // The neighbour's ceiling below ours: a drop facing us (a beam's side, a soffit).
+        const double n_top_p = ceiling(*n, s.pi), n_top_q = ceiling(*n, s.qi);
+        if (n_top_p < top_p || n_top_q < top_q) {
+          vertical(reveal ? out.wall : out.ceiling, s.pi, s.pk, s.qi, s.qk, std::min(n_top_p, top_p), top_p,
+                   std::min(n_top_q, top_q), top_q);
+        }
+      }
     }
   }
-  return p;
+  // Shelves: closed boxes against the walls, wound outwards.
+  for (const RoomPlan::Shelf& s : plan.shelves) {
+    const Vec3 c = s.centre, h = s.half;
+    const auto corner = [&](int m) {
+      return Vec3{c.x + (m & 1 ? h.x : -h.x), c.y + (m & 2 ? h.y : -h.y), c.z + (m & 4 ? h.z : -h.z)};
+    };
+    // Faces as corner quadruples, counter-clockwise seen from outside.
+    static constexpr std::array<std::array<int, 4>, 6> kFaces = {{{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                                                 {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}}};
+    for (const auto& f : kFaces) {
+      const Vec3 a = corner(f[0]), b = corner(f[1]), cc = corner(f[2]), d = corner(f[3]);
+      out.Add(out.wall, a, b, cc, {a.x + a.z, a.y}, {b.x + b.z, b.y}, {cc.x + cc.z, cc.y});
+      out.Add(out.wall, a, cc, d, {a.x + a.z, a.y}, {cc.x + cc.z, cc.y}, {d.x + d.z, d.y});
+    }
+  }
 }
 
 // Texture patterns covering one square metre (UVs are metres, so one repeat per metre).
@@ -947,16 +927,44 @@ Pattern CeilingPattern(Rng& rng) {
 
 }  // namespace
 
-std::string_view ShapeFamilyName(ShapeFamily f) {
-  switch (f) {
-    case ShapeFamily::kSuperquadric: return "superquadric";
-    case ShapeFamily::kNoisySphere: return "noisy_sphere";
-    case ShapeFamily::kExtrusion: return "extrusion";
-    case ShapeFamily::kRevolution: return "revolution";
-    case ShapeFamily::kTorus: return "torus";
-    case ShapeFamily::kUnion: return "union";
+namespace {
+
+struct FamilyInfo {
+  ShapeFamily family;
+  std::string_view name, synset;  // the ShapeNetCore.v2 synset the family is shaped after
+};
+
+constexpr std::array<FamilyInfo, kShapeFamilyCount> kFamilies = {{
+    {ShapeFamily::kChair, "chair", "03001627"},       {ShapeFamily::kTable, "table", "04379243"},
+    {ShapeFamily::kSofa, "sofa", "04256520"},         {ShapeFamily::kBed, "bed", "02818832"},
+    {ShapeFamily::kCabinet, "cabinet", "02933112"},   {ShapeFamily::kBookshelf, "bookshelf", "02871439"},
+    {ShapeFamily::kLamp, "lamp", "03636649"},         {ShapeFamily::kDisplay, "display", "03211117"},
+    {ShapeFamily::kCar, "car", "02958343"},           {ShapeFamily::kAirplane, "airplane", "02691156"},
+    {ShapeFamily::kBottle, "bottle", "02876657"},     {ShapeFamily::kVase, "vase", "03593526"},
+    {ShapeFamily::kMug, "mug", "03797390"},           {ShapeFamily::kBowl, "bowl", "02880940"},
+    {ShapeFamily::kBench, "bench", "02828884"},       {ShapeFamily::kTrashBin, "trash_bin", "02747177"},
+    {ShapeFamily::kGuitar, "guitar", "03467517"},     {ShapeFamily::kLaptop, "laptop", "03642806"},
+}};
+
+const FamilyInfo& Info(ShapeFamily f) { return kFamilies[static_cast<size_t>(f)]; }
+
+}  // namespace
+
+std::string_view ShapeFamilyName(ShapeFamily f) { return Info(f).name; }
+std::string_view ShapeFamilySynset(ShapeFamily f) { return Info(f).synset; }
+
+Result<std::vector<ShapeFamily>> ParseShapeFamilies(const std::vector<std::string>& names) {
+  std::vector<ShapeFamily> families;
+  for (const std::string& name : names) {
+    const auto it = std::find_if(kFamilies.begin(), kFamilies.end(), [&](const FamilyInfo& i) { return i.name == name; });
+    if (it == kFamilies.end()) {
+      std::string valid;
+      for (const FamilyInfo& i : kFamilies) valid += (valid.empty() ? "" : ", ") + std::string(i.name);
+      return InvalidArgumentError(fmt::format("unknown shape family '{}' (families: {})", name, valid));
+    }
+    families.push_back(it->family);
   }
-  return "unknown";
+  return families;
 }
 
 Status CheckProceduralShapeOptions(const ProceduralShapeOptions& options) {
@@ -970,7 +978,37 @@ Status CheckProceduralShapeOptions(const ProceduralShapeOptions& options) {
   if (options.texture_size < 4 || options.texture_size > 4096) {
     return InvalidArgumentError(fmt::format("texture_size {} outside [4, 4096]", options.texture_size));
   }
+  for (size_t i = 0; i < options.families.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (options.families[i] == options.families[j]) {
+        return InvalidArgumentError(fmt::format("shape family '{}' listed twice", ShapeFamilyName(options.families[i])));
+      }
+    }
+  }
   return Status::Ok();
+}
+
+namespace {
+
+// The default mix: every family once, then more of ShapeNetCore's largest categories
+// (tables 8.4k models, chairs 6.8k, airplanes 4.0k, cars 3.5k, sofas 3.2k, lamps 2.3k,
+// benches 1.8k), so that a default set's statistics lean the way ShapeNet's do.
+constexpr std::array<ShapeFamily, 32> kDefaultCycle = {
+    ShapeFamily::kChair,    ShapeFamily::kTable,     ShapeFamily::kSofa,     ShapeFamily::kBed,
+    ShapeFamily::kCabinet,  ShapeFamily::kBookshelf, ShapeFamily::kLamp,     ShapeFamily::kDisplay,
+    ShapeFamily::kCar,      ShapeFamily::kAirplane,  ShapeFamily::kBottle,   ShapeFamily::kVase,
+    ShapeFamily::kMug,      ShapeFamily::kBowl,      ShapeFamily::kBench,    ShapeFamily::kTrashBin,
+    ShapeFamily::kGuitar,   ShapeFamily::kLaptop,    ShapeFamily::kTable,    ShapeFamily::kChair,
+    ShapeFamily::kTable,    ShapeFamily::kChair,     ShapeFamily::kAirplane, ShapeFamily::kCar,
+    ShapeFamily::kSofa,     ShapeFamily::kTable,     ShapeFamily::kChair,    ShapeFamily::kLamp,
+    ShapeFamily::kAirplane, ShapeFamily::kCar,       ShapeFamily::kTable,    ShapeFamily::kBench,
+};
+
+}  // namespace
+
+ShapeFamily FamilyOfIndex(int index, const ProceduralShapeOptions& options) {
+  if (options.families.empty()) return kDefaultCycle[static_cast<size_t>(index) % kDefaultCycle.size()];
+  return options.families[static_cast<size_t>(index) % options.families.size()];
 }
 
 Result<Asset> MakeProceduralShape(uint64_t seed, int index, const std::string& key,
@@ -982,35 +1020,26 @@ Result<Asset> MakeProceduralShape(uint64_t seed, int index, const std::string& k
   const uint64_t item = MixSeed(seed, static_cast<uint64_t>(index));
   Rng geometry(item, kShapeGeometryStream);
   Rng look(item, kShapeMaterialStream);
-  const auto family = static_cast<ShapeFamily>(index % kShapeFamilyCount);
-  const int material_count = look.Chance(0.35) ? 2 : 1;
-
-  Tessellator tessellate;
-  switch (family) {
-    case ShapeFamily::kSuperquadric: tessellate = Superquadric(geometry, material_count); break;
-    case ShapeFamily::kNoisySphere: tessellate = NoisySphere(geometry, material_count); break;
-    case ShapeFamily::kExtrusion: tessellate = Extrusion(geometry, material_count); break;
-    case ShapeFamily::kRevolution: tessellate = Revolution(geometry, material_count); break;
-    case ShapeFamily::kTorus: tessellate = Torus(geometry, material_count); break;
-    case ShapeFamily::kUnion: tessellate = Union(geometry, material_count); break;
-  }
+  const ShapeFamily family = FamilyOfIndex(index, options);
+  const ModelSpec spec = MakeFamilySpec(family, geometry);
   // Log-uniform inside the range, away from its ends so the rounding of counts has room.
   const double goal = std::exp(geometry.Uniform(std::log(options.min_triangles * 1.1),
                                                 std::log(options.max_triangles / 1.1)));
-  Result<Shape> shape = TessellateWithin(tessellate, options.min_triangles, options.max_triangles, goal);
-  if (!shape.ok()) return shape.status().WithContext(where);
+  Result<Shape> shape = TessellateWithin(spec, options.min_triangles, options.max_triangles, goal);
+  if (!shape.ok()) return shape.status().WithContext(where + " " + std::string(ShapeFamilyName(family)));
 
   Asset asset;
-  asset.nodes.push_back(ShapeNode(*shape, key, material_count));
-  static constexpr std::array<const char*, 2> kMaterialNames = {"body", "accent"};
-  for (int m = 0; m < material_count; ++m) {
-    const Pattern pattern = RandomShapePattern(look);
-    SOLID_RETURN_IF_ERROR(AddTexturedMaterial(asset, kMaterialNames[static_cast<size_t>(m)], pattern,
-                                              options.texture_size, look.Uniform(0.3, 1))
-                              .WithContext(where));
+  asset.nodes.push_back(ShapeNode(*shape, key, spec.materials.size()));
+  for (const MaterialSlot& slot : spec.materials) {
+    double roughness = 0.5;
+    const Pattern pattern = SurfacePattern(slot.surfacing, look, &roughness);
+    SOLID_RETURN_IF_ERROR(AddTexturedMaterial(asset, slot.name, pattern, options.texture_size, roughness).WithContext(where));
   }
+  // As ShapeNet rows carry their synset (convert.cpp), so the category survives into the catalog.
   asset.extras = {{"generator", "solid procedural"},
                   {"family", ShapeFamilyName(family)},
+                  {"synset", ShapeFamilySynset(family)},
+                  {"synset_name", ShapeFamilyName(family)},
                   {"seed", SeedHex(seed)},
                   {"index", index}};
   return asset;
@@ -1043,14 +1072,37 @@ Result<Asset> MakeProceduralRoom(uint64_t seed, int index, const std::string& ke
     SOLID_RETURN_IF_ERROR(AddTexturedMaterial(asset, surfacing.name, pattern, options.texture_size, roughness)
                               .WithContext(where));
   }
+  ShellBuilder shell;
+  BuildShell(plan, shell);
+  // Notches and thick walls can take a whole side: centre what is left.
+  float lo_x = 1e30f, hi_x = -1e30f, lo_z = 1e30f, hi_z = -1e30f;
+  for (const Primitive* p : {&shell.floor, &shell.wall, &shell.ceiling}) {
+    for (size_t v = 0; v < p->positions.size(); v += 3) {
+      lo_x = std::min(lo_x, p->positions[v]);
+      hi_x = std::max(hi_x, p->positions[v]);
+      lo_z = std::min(lo_z, p->positions[v + 2]);
+      hi_z = std::max(hi_z, p->positions[v + 2]);
+    }
+  }
+  const float mid_x = (lo_x + hi_x) / 2, mid_z = (lo_z + hi_z) / 2;
+  for (Primitive* p : {&shell.floor, &shell.wall, &shell.ceiling}) {
+    for (size_t v = 0; v < p->positions.size(); v += 3) {
+      p->positions[v] -= mid_x;
+      p->positions[v + 2] -= mid_z;
+    }
+  }
+  shell.floor.material = 0;
+  shell.wall.material = 1;
+  shell.ceiling.material = 2;
   // extras.structure is how the renderer tells shell pieces apart, as for SceneNet rooms.
-  asset.nodes.push_back({"floor", {HorizontalSurface(plan, false, 0)}, {{"structure", "floor"}}});
-  asset.nodes.push_back({"wall", {Walls(plan, 1)}, {{"structure", "wall"}}});
-  asset.nodes.push_back({"ceiling", {HorizontalSurface(plan, true, 2)}, {{"structure", "ceiling"}}});
+  asset.nodes.push_back({"floor", {std::move(shell.floor)}, {{"structure", "floor"}}});
+  asset.nodes.push_back({"wall", {std::move(shell.wall)}, {{"structure", "wall"}}});
+  asset.nodes.push_back({"ceiling", {std::move(shell.ceiling)}, {{"structure", "ceiling"}}});
   asset.extras = {{"generator", "solid procedural"},
                   {"family", "room"},
-                  {"plan", plan.l_shaped ? "L" : "box"},
-                  {"size_m", {plan.width, plan.height, plan.depth}},
+                  {"plan", plan.footprint},
+                  {"features", plan.features},
+                  {"size_m", {RoundToCentimetre(hi_x - lo_x), plan.height, RoundToCentimetre(hi_z - lo_z)}},
                   {"seed", SeedHex(seed)},
                   {"index", index},
                   {"key", key}};
@@ -1058,3 +1110,4 @@ Result<Asset> MakeProceduralRoom(uint64_t seed, int index, const std::string& ke
 }
 
 }  // namespace solid::convert
+

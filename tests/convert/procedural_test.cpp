@@ -24,7 +24,7 @@ using namespace solid::gltf;
 namespace {
 
 constexpr uint64_t kSeed = 0x5eed0001;
-constexpr int kShapesPerFamily = 5;
+constexpr int kShapesPerFamily = 3;
 
 using Vec = std::array<double, 3>;
 
@@ -81,6 +81,21 @@ std::string ClosednessProblem(const WeldedMesh& mesh) {
   return "";
 }
 
+// Closed, allowing non-manifold edges: every edge is crossed as often in one direction as
+// in the other. Where two solid blocks of a room meet only along a vertical edge (a
+// pillar and a beam's side, say), four faces share it.
+std::string WatertightnessProblem(const WeldedMesh& mesh) {
+  std::map<std::pair<uint32_t, uint32_t>, int> directed;
+  for (const auto& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) ++directed[{t[static_cast<size_t>(k)], t[static_cast<size_t>((k + 1) % 3)]}];
+  }
+  for (const auto& [edge, count] : directed) {
+    const auto reverse = directed.find({edge.second, edge.first});
+    if (reverse == directed.end() || reverse->second != count) return "an edge crossed more often one way than the other";
+  }
+  return "";
+}
+
 // Divergence theorem: sum of centroid . normal * area over a closed mesh is 3 * volume,
 // positive when the winding faces outwards. This holds for any closed shape, star-shaped
 // or not, which is why it is the orientation test here.
@@ -97,7 +112,7 @@ void ExpectValidPngTextures(const Asset& asset, int size) {
     ASSERT_TRUE(m.base_color_texture.has_value()) << m.name;
     ASSERT_LT(*m.base_color_texture, asset.textures.size());
     EXPECT_EQ(m.base_color, (std::array<float, 4>{1, 1, 1, 1})) << "textured materials keep a white factor";
-    EXPECT_GE(m.roughness, 0.3f);
+    EXPECT_GE(m.roughness, 0.1f);
     EXPECT_LE(m.roughness, 1.0f);
   }
   for (const Texture& t : asset.textures) {
@@ -155,80 +170,116 @@ void ExpectIdentical(const Asset& a, const Asset& b) {
   EXPECT_EQ(a.extras, b.extras);
 }
 
+ShapeFamily Family(int f) { return static_cast<ShapeFamily>(f); }
+
+// Model `family` of the set that holds only that family: its first model is index 0.
+Result<Asset> ShapeOf(ShapeFamily family, int index, const ProceduralShapeOptions& base = {}) {
+  ProceduralShapeOptions options = base;
+  options.families = {family};
+  return MakeProceduralShape(kSeed, index, "procedural/shape-" + std::to_string(index), options);
+}
+
 TEST(ProceduralShape, EveryFamilyMeetsTheGeometricContract) {
   const ProceduralShapeOptions options;
-  std::map<std::string, std::vector<double>> triangles_by_family, ms_by_family;
-  for (int index = 0; index < kShapesPerFamily * kShapeFamilyCount; ++index) {
-    const auto family = static_cast<ShapeFamily>(index % kShapeFamilyCount);
-    SCOPED_TRACE("repro: MakeProceduralShape(" + std::to_string(kSeed) + ", " + std::to_string(index) + ") " +
-                 std::string(ShapeFamilyName(family)));
-    const auto start = std::chrono::steady_clock::now();
-    auto asset = MakeProceduralShape(kSeed, index, "procedural/shape-" + std::to_string(index), options);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    ASSERT_OK(asset.status());
-
-    ASSERT_EQ(asset->nodes.size(), 1u);
-    EXPECT_EQ(asset->nodes[0].name, "procedural/shape-" + std::to_string(index));
-    const uint64_t triangles = TriangleCount(*asset);
-    EXPECT_GE(triangles, static_cast<uint64_t>(options.min_triangles));
-    EXPECT_LE(triangles, static_cast<uint64_t>(options.max_triangles));
-    triangles_by_family[std::string(ShapeFamilyName(family))].push_back(static_cast<double>(triangles));
-    ms_by_family[std::string(ShapeFamilyName(family))].push_back(ms);
-
-    const Bounds bounds = ComputeBounds(*asset);
-    double largest = 0;
-    for (int k = 0; k < 3; ++k) {
-      largest = std::max(largest, bounds.max[k] - bounds.min[k]);
-      EXPECT_NEAR(bounds.max[k] + bounds.min[k], 0.0, 1e-5) << "axis " << k << " not centred";
-    }
-    EXPECT_NEAR(largest, 1.0, 1e-5);
-
-    ExpectWellFormedPrimitives(*asset);
-    ASSERT_FALSE(::testing::Test::HasFatalFailure());
-    ExpectValidPngTextures(*asset, options.texture_size);
-    EXPECT_GE(asset->materials.size(), 1u);
-    EXPECT_LE(asset->materials.size(), 2u);
-
-    const WeldedMesh mesh = Weld({&asset->nodes[0]});
-    EXPECT_EQ(ClosednessProblem(mesh), "");
-    // Union parts overlap, so their volumes add up to more than the union's; still positive.
-    EXPECT_GT(SignedVolume(mesh), 1e-3);
-
-    // No zero-area triangles (1e-12 is about a 1e-6 x 1e-6 sliver on a unit shape), and
-    // vertex normals agree with the winding of the faces they belong to.
-    int degenerate = 0, disagreeing_corners = 0;
-    for (const Primitive& p : asset->nodes[0].primitives) {
-      for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-        const Vec a = Position(p, p.indices[t]), b = Position(p, p.indices[t + 1]), c = Position(p, p.indices[t + 2]);
-        const Vec face = Cross(Sub(b, a), Sub(c, a));
-        if (Norm(face) / 2 < 1e-12) ++degenerate;
-        for (size_t k = 0; k < 3; ++k) disagreeing_corners += Dot(face, Normal(p, p.indices[t + k])) <= 0;
-      }
-    }
-    EXPECT_EQ(degenerate, 0);
-    EXPECT_EQ(disagreeing_corners, 0);
-
-    EXPECT_EQ(asset->extras.value("generator", ""), "solid procedural");
-    EXPECT_EQ(asset->extras.value("family", ""), ShapeFamilyName(family));
-    EXPECT_EQ(asset->extras.value("index", -1), index);
-    EXPECT_EQ(asset->extras.value("seed", ""), "0x000000005eed0001");
-  }
-  for (const auto& [family, counts] : triangles_by_family) {
-    const auto [lo, hi] = std::minmax_element(counts.begin(), counts.end());
+  for (int f = 0; f < kShapeFamilyCount; ++f) {
+    const ShapeFamily family = Family(f);
     double ms = 0;
-    for (double x : ms_by_family[family]) ms += x;
-    std::printf("%-13s triangles %6.0f..%6.0f  %.1f ms/shape\n", family.c_str(), *lo, *hi,
-                ms / static_cast<double>(counts.size()));
+    uint64_t lo = UINT64_MAX, hi = 0;
+    for (int index = 0; index < kShapesPerFamily; ++index) {
+      SCOPED_TRACE("repro: MakeProceduralShape(" + std::to_string(kSeed) + ", " + std::to_string(index) +
+                   ", families = {" + std::string(ShapeFamilyName(family)) + "})");
+      const auto start = std::chrono::steady_clock::now();
+      auto asset = ShapeOf(family, index);
+      ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      ASSERT_OK(asset.status());
+      ASSERT_EQ(asset->nodes.size(), 1u);
+      EXPECT_EQ(asset->nodes[0].name, "procedural/shape-" + std::to_string(index));
+      const uint64_t triangles = TriangleCount(*asset);
+      EXPECT_GE(triangles, static_cast<uint64_t>(options.min_triangles));
+      EXPECT_LE(triangles, static_cast<uint64_t>(options.max_triangles));
+      lo = std::min(lo, triangles);
+      hi = std::max(hi, triangles);
+
+      // ShapeNetCore.v2's normalisation: vertex mean at the origin, bounding-box diagonal 1.
+      const Bounds bounds = ComputeBounds(*asset);
+      double diagonal2 = 0;
+      for (int k = 0; k < 3; ++k) diagonal2 += (bounds.max[k] - bounds.min[k]) * (bounds.max[k] - bounds.min[k]);
+      EXPECT_NEAR(std::sqrt(diagonal2), 1.0, 1e-5);
+      Vec mean{0, 0, 0};
+      double vertices = 0;
+      for (const Primitive& p : asset->nodes[0].primitives) {
+        for (uint32_t v = 0; v < p.positions.size() / 3; ++v) {
+          for (size_t k = 0; k < 3; ++k) mean[k] += Position(p, v)[k];
+          vertices += 1;
+        }
+      }
+      for (size_t k = 0; k < 3; ++k) EXPECT_NEAR(mean[k] / vertices, 0.0, 1e-5) << "axis " << k;
+
+      ExpectWellFormedPrimitives(*asset);
+      ASSERT_FALSE(::testing::Test::HasFatalFailure());
+      ExpectValidPngTextures(*asset, options.texture_size);
+      EXPECT_GE(asset->materials.size(), 1u);
+      EXPECT_LE(asset->nodes[0].primitives.size(), asset->materials.size());
+
+      // Every part is closed and wound outwards, so the union of parts is too (parts
+      // overlap but share no vertex).
+      const WeldedMesh mesh = Weld({&asset->nodes[0]});
+      EXPECT_EQ(ClosednessProblem(mesh), "");
+      EXPECT_GT(SignedVolume(mesh), 0.0);
+
+      int degenerate = 0, disagreeing_corners = 0;
+      for (const Primitive& p : asset->nodes[0].primitives) {
+        for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+          const Vec a = Position(p, p.indices[t]), b = Position(p, p.indices[t + 1]), c = Position(p, p.indices[t + 2]);
+          const Vec face = Cross(Sub(b, a), Sub(c, a));
+          if (Norm(face) / 2 < 1e-12) ++degenerate;
+          for (size_t k = 0; k < 3; ++k) disagreeing_corners += Dot(face, Normal(p, p.indices[t + k])) <= 0;
+        }
+      }
+      EXPECT_EQ(degenerate, 0);
+      EXPECT_EQ(disagreeing_corners, 0);
+
+      EXPECT_EQ(asset->extras.value("generator", ""), "solid procedural");
+      EXPECT_EQ(asset->extras.value("family", ""), ShapeFamilyName(family));
+      EXPECT_EQ(asset->extras.value("synset_name", ""), ShapeFamilyName(family));
+      EXPECT_EQ(asset->extras.value("synset", ""), ShapeFamilySynset(family));
+      EXPECT_EQ(asset->extras.value("index", -1), index);
+      EXPECT_EQ(asset->extras.value("seed", ""), "0x000000005eed0001");
+    }
+    std::printf("%-10s triangles %6llu..%6llu  %.1f ms/shape\n", std::string(ShapeFamilyName(family)).c_str(),
+                static_cast<unsigned long long>(lo), static_cast<unsigned long long>(hi), ms / kShapesPerFamily);
+  }
+}
+
+// +Y up: bottles and guitars are taller than wide.
+TEST(ProceduralShape, TallFamiliesStandUpright) {
+  for (const ShapeFamily family : {ShapeFamily::kBottle, ShapeFamily::kGuitar}) {
+    for (int index = 0; index < 3; ++index) {
+      auto asset = ShapeOf(family, index);
+      ASSERT_OK(asset.status());
+      const Bounds b = ComputeBounds(*asset);
+      EXPECT_GT(b.max[1] - b.min[1], std::max(b.max[0] - b.min[0], b.max[2] - b.min[2]))
+          << ShapeFamilyName(family) << " " << index;
+    }
+  }
+  // Cars and airplanes are longer (front -Z) than wide or tall.
+  for (const ShapeFamily family : {ShapeFamily::kCar, ShapeFamily::kAirplane}) {
+    for (int index = 0; index < 3; ++index) {
+      auto asset = ShapeOf(family, index);
+      ASSERT_OK(asset.status());
+      const Bounds b = ComputeBounds(*asset);
+      EXPECT_GT(b.max[2] - b.min[2], b.max[1] - b.min[1]) << ShapeFamilyName(family) << " " << index;
+    }
   }
 }
 
 TEST(ProceduralShape, IsDeterministicToTheByte) {
-  for (int index = 0; index < kShapeFamilyCount; ++index) {
-    auto a = MakeProceduralShape(kSeed, index, "k");
-    auto b = MakeProceduralShape(kSeed, index, "k");
+  for (int f = 0; f < kShapeFamilyCount; ++f) {
+    auto a = ShapeOf(Family(f), 1);
+    auto b = ShapeOf(Family(f), 1);
     ASSERT_OK(a.status());
     ASSERT_OK(b.status());
-    SCOPED_TRACE(index);
+    SCOPED_TRACE(ShapeFamilyName(Family(f)));
     ExpectIdentical(*a, *b);
   }
 }
@@ -248,15 +299,51 @@ TEST(ProceduralShape, IndicesAndSeedsGiveDifferentShapes) {
   EXPECT_EQ(distinct_textures.size(), 4u * kShapeFamilyCount);
 }
 
+TEST(ProceduralShape, DefaultMixesEveryFamilyAndLeansLikeShapeNet) {
+  std::map<std::string, int> counts;
+  for (int index = 0; index < 64; ++index) {
+    const std::string family(ShapeFamilyName(FamilyOfIndex(index, {})));
+    if (index < kShapeFamilyCount) EXPECT_EQ(family, ShapeFamilyName(Family(index)));
+    ++counts[family];
+  }
+  EXPECT_EQ(counts.size(), static_cast<size_t>(kShapeFamilyCount));
+  EXPECT_EQ(counts["table"], 10);
+  EXPECT_EQ(counts["chair"], 8);
+  EXPECT_EQ(counts["guitar"], 2);
+  auto asset = MakeProceduralShape(kSeed, 20, "k", {.texture_size = 8});
+  ASSERT_OK(asset.status());
+  EXPECT_EQ(asset->extras.value("family", ""), ShapeFamilyName(FamilyOfIndex(20, {})));
+}
+
+TEST(ProceduralShape, FamiliesOptionPicksAndOrdersFamilies) {
+  auto families = ParseShapeFamilies({"car", "lamp", "trash_bin"});
+  ASSERT_OK(families.status());
+  const ProceduralShapeOptions options{.texture_size = 8, .families = *families};
+  for (int index = 0; index < 6; ++index) {
+    auto asset = MakeProceduralShape(kSeed, index, "k", options);
+    ASSERT_OK(asset.status());
+    EXPECT_EQ(asset->extras.value("family", ""), (std::array<const char*, 3>{"car", "lamp", "trash_bin"})[index % 3]);
+  }
+  auto unknown = ParseShapeFamilies({"chair", "spaceship"});
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(unknown.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(unknown.status().message().find("unknown shape family 'spaceship'"), std::string::npos);
+  EXPECT_NE(unknown.status().message().find("trash_bin"), std::string::npos) << "lists the valid names";
+  auto twice = MakeProceduralShape(kSeed, 0, "k", {.families = {ShapeFamily::kCar, ShapeFamily::kCar}});
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.status().message().find("'car' listed twice"), std::string::npos) << twice.status().ToString();
+}
+
 TEST(ProceduralShape, MeetsNarrowTriangleRangesInEveryFamily) {
-  // The smallest accepted range, and a narrow one in the middle.
-  for (const auto& [lo, hi] : {std::pair{kMinProceduralTriangles, kMinProceduralTriangles * 5 / 4}, std::pair{1000, 1250}}) {
-    const ProceduralShapeOptions options{.min_triangles = lo, .max_triangles = hi, .texture_size = 16};
-    for (int index = 0; index < 3 * kShapeFamilyCount; ++index) {
-      auto asset = MakeProceduralShape(kSeed, index, "k", options);
-      ASSERT_OK(asset.status());
-      EXPECT_GE(TriangleCount(*asset), static_cast<uint64_t>(lo)) << index;
-      EXPECT_LE(TriangleCount(*asset), static_cast<uint64_t>(hi)) << index;
+  for (const auto& [lo, hi] : {std::pair{kMinProceduralTriangles, kMinProceduralTriangles * 5 / 4}, std::pair{8000, 10000}}) {
+    for (int f = 0; f < kShapeFamilyCount; ++f) {
+      for (int index = 0; index < 2; ++index) {
+        auto asset = ShapeOf(Family(f), index, {.min_triangles = lo, .max_triangles = hi, .texture_size = 8});
+        SCOPED_TRACE(std::string(ShapeFamilyName(Family(f))) + " " + std::to_string(index));
+        ASSERT_OK(asset.status());
+        EXPECT_GE(TriangleCount(*asset), static_cast<uint64_t>(lo)) << ShapeFamilyName(Family(f));
+        EXPECT_LE(TriangleCount(*asset), static_cast<uint64_t>(hi)) << ShapeFamilyName(Family(f));
+      }
     }
   }
 }
@@ -269,15 +356,20 @@ TEST(ProceduralShape, RejectsBadOptions) {
     EXPECT_NE(asset.status().message().find(substring), std::string::npos) << asset.status().ToString();
   };
   expect_invalid(-1, {}, "index");
-  expect_invalid(0, {.min_triangles = 100, .max_triangles = 1000}, "triangle range [100, 1000]");
-  expect_invalid(0, {.min_triangles = 1000, .max_triangles = 1100}, "triangle range");
+  expect_invalid(0, {.min_triangles = 500, .max_triangles = 5000}, "triangle range [500, 5000]");
+  expect_invalid(0, {.min_triangles = 2000, .max_triangles = 2200}, "triangle range");
   expect_invalid(0, {.texture_size = 0}, "texture_size 0");
 }
 
-TEST(ProceduralShape, FamilyNamesAreDistinct) {
-  std::set<std::string_view> names;
-  for (int f = 0; f < kShapeFamilyCount; ++f) names.insert(ShapeFamilyName(static_cast<ShapeFamily>(f)));
+TEST(ProceduralShape, FamilyNamesAndSynsetsAreDistinct) {
+  std::set<std::string_view> names, synsets;
+  for (int f = 0; f < kShapeFamilyCount; ++f) {
+    names.insert(ShapeFamilyName(Family(f)));
+    synsets.insert(ShapeFamilySynset(Family(f)));
+    EXPECT_EQ(ShapeFamilySynset(Family(f)).size(), 8u);
+  }
   EXPECT_EQ(names.size(), static_cast<size_t>(kShapeFamilyCount));
+  EXPECT_EQ(synsets.size(), static_cast<size_t>(kShapeFamilyCount));
 }
 
 // ---------------------------------------------------------------------------------------
@@ -289,23 +381,10 @@ const Node* FindNode(const Asset& asset, const std::string& name) {
   return nullptr;
 }
 
-// Whether (x, z) lies inside the floor, i.e. the room's plan.
-bool InsideFloor(const Node& floor, double x, double z) {
-  for (const Primitive& p : floor.primitives) {
-    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-      const Vec a = Position(p, p.indices[t]), b = Position(p, p.indices[t + 1]), c = Position(p, p.indices[t + 2]);
-      const auto side = [&](const Vec& u, const Vec& v) { return (v[0] - u[0]) * (z - u[2]) - (v[2] - u[2]) * (x - u[0]); };
-      const double s0 = side(a, b), s1 = side(b, c), s2 = side(c, a);
-      if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) return true;
-    }
-  }
-  return false;
-}
-
 TEST(ProceduralRoom, RoomsAreClosedInwardFacingAndInRange) {
-  const ProceduralRoomOptions options{.texture_size = 64};
-  std::set<std::string> plans;
-  for (int index = 0; index < 24; ++index) {
+  const ProceduralRoomOptions options{.texture_size = 16};
+  std::set<std::string> plans, features;
+  for (int index = 0; index < 40; ++index) {
     SCOPED_TRACE("repro: MakeProceduralRoom(" + std::to_string(kSeed) + ", " + std::to_string(index) + ")");
     auto room = MakeProceduralRoom(kSeed, index, "room-" + std::to_string(index), options);
     ASSERT_OK(room.status());
@@ -319,69 +398,73 @@ TEST(ProceduralRoom, RoomsAreClosedInwardFacingAndInRange) {
     for (const Material& m : room->materials) material_names.insert(m.name);
     EXPECT_EQ(material_names, (std::set<std::string>{"floor", "wall", "ceiling"}));
     plans.insert(room->extras.value("plan", ""));
+    for (const auto& f : room->extras["features"]) features.insert(f.get<std::string>());
     EXPECT_EQ(room->extras.value("family", ""), "room");
     EXPECT_EQ(room->extras.value("key", ""), "room-" + std::to_string(index));
 
+    // SceneNet-sized: 2.5-7 m across (a thick wall may take 0.3 m off), 2.4-3.1 m
+    // high, floor at 0, centred in x and z.
     const Bounds bounds = ComputeBounds(*room);
     const double width = bounds.max[0] - bounds.min[0], height = bounds.max[1], depth = bounds.max[2] - bounds.min[2];
     EXPECT_EQ(bounds.min[1], 0.0);
-    EXPECT_GE(width, 4.0);
-    EXPECT_LE(width, 16.0);
-    EXPECT_GE(depth, 4.0);
-    EXPECT_LE(depth, 16.0);
-    EXPECT_GE(height, 2.5);
-    EXPECT_LE(height, 4.0);
+    for (const double d : {width, depth}) {
+      EXPECT_GE(d, 2.2);
+      EXPECT_LE(d, 7.02);
+    }
+    EXPECT_GE(height, 2.4);
+    EXPECT_LE(height, 3.1);
+    EXPECT_LE(std::max(width, depth) / std::min(width, depth), 2.51);
     EXPECT_NEAR(bounds.max[0] + bounds.min[0], 0.0, 1e-5);
     EXPECT_NEAR(bounds.max[2] + bounds.min[2], 0.0, 1e-5);
     const size_t triangles = TriangleCount(*room);
     EXPECT_GE(triangles, 36u);
-    EXPECT_LE(triangles, 4000u);
+    EXPECT_LE(triangles, 8000u);
 
-    // Floor and ceiling: flat, facing into the room, UVs spanning the plan in metres.
-    for (const auto& [node, y, ny] : {std::tuple{floor, 0.0, 1.0}, std::tuple{ceiling, height, -1.0}}) {
-      for (const Primitive& p : node->primitives) {
-        float u_min = 1e9f, u_max = -1e9f, v_min = 1e9f, v_max = -1e9f;
-        for (uint32_t v = 0; v < p.positions.size() / 3; ++v) {
-          EXPECT_EQ(Position(p, v)[1], y);
-          EXPECT_EQ(Normal(p, v), (Vec{0, ny, 0}));
-          u_min = std::min(u_min, p.uvs[2 * v]);
-          u_max = std::max(u_max, p.uvs[2 * v]);
-          v_min = std::min(v_min, p.uvs[2 * v + 1]);
-          v_max = std::max(v_max, p.uvs[2 * v + 1]);
-        }
-        EXPECT_NEAR(u_max - u_min, width, 1e-4);
-        EXPECT_NEAR(v_max - v_min, depth, 1e-4);
-      }
-    }
-    // Walls: vertical, and a step along the normal from each panel stays inside the plan
-    // while a step against it leaves it; this works for L plans as well as boxes.
-    for (const Primitive& p : wall->primitives) {
-      float v_min = 1e9f, v_max = -1e9f;
+    // Floors face up, ceilings down (sloped at most about 20 degrees).
+    for (const Primitive& p : floor->primitives) {
       for (uint32_t v = 0; v < p.positions.size() / 3; ++v) {
-        v_min = std::min(v_min, p.uvs[2 * v + 1]);
-        v_max = std::max(v_max, p.uvs[2 * v + 1]);
+        const Vec n = Normal(p, v);
+        EXPECT_TRUE(n[1] > 0.999 || std::fabs(n[1]) < 1e-6) << "a floor or a step's riser";
       }
-      EXPECT_NEAR(v_max - v_min, height, 1e-4);
-      for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-        const Vec a = Position(p, p.indices[t]), b = Position(p, p.indices[t + 1]), c = Position(p, p.indices[t + 2]);
-        const Vec n = Normal(p, p.indices[t]);
-        EXPECT_EQ(n[1], 0.0);
-        EXPECT_GT(Dot(Cross(Sub(b, a), Sub(c, a)), n), 0.0) << "winding disagrees with the normal";
-        const double cx = (a[0] + b[0] + c[0]) / 3, cz = (a[2] + b[2] + c[2]) / 3;
-        EXPECT_TRUE(InsideFloor(*floor, cx + 0.05 * n[0], cz + 0.05 * n[2]));
-        EXPECT_FALSE(InsideFloor(*floor, cx - 0.05 * n[0], cz - 0.05 * n[2]));
-        if (room->extras.value("plan", "") == "box") {
-          EXPECT_GT(-(cx * n[0] + cz * n[2]), 0.0) << "faces the centre";
+    }
+    for (const Primitive& p : ceiling->primitives) {
+      for (uint32_t v = 0; v < p.positions.size() / 3; ++v) {
+        const Vec n = Normal(p, v);
+        EXPECT_TRUE(n[1] < -0.93 || std::fabs(n[1]) < 1e-6) << "a ceiling or the side of a drop";
+      }
+    }
+    for (const Primitive& p : wall->primitives) {
+      for (uint32_t v = 0; v < p.positions.size() / 3; ++v) {
+        const Vec n = Normal(p, v);
+        // Sideways; or up or down (sills, lintels, half-wall tops, shelves), a lintel under
+        // a sloped ceiling sloping with it.
+        EXPECT_TRUE(std::fabs(n[1]) < 1e-6 || n[1] > 1 - 1e-6 || n[1] < -0.93);
+      }
+    }
+    // No zero-area triangle (a sliver cell between two nearly equal feature edges):
+    // Draco drops them, so the decoded room would differ from the generated one.
+    int degenerate = 0;
+    for (const Node* node : {floor, wall, ceiling}) {
+      for (const Primitive& p : node->primitives) {
+        for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+          const Vec a = Position(p, p.indices[t]), b = Position(p, p.indices[t + 1]), c = Position(p, p.indices[t + 2]);
+          degenerate += Norm(Cross(Sub(b, a), Sub(c, a))) < 1e-8;
         }
       }
     }
-    // The whole room is one closed mesh wound inwards: no light leaks through seams.
+    EXPECT_EQ(degenerate, 0);
+    // The shell is one closed mesh wound inwards (no light leaks through seams), shelves
+    // closed boxes wound outwards.
     const WeldedMesh mesh = Weld({floor, wall, ceiling});
-    EXPECT_EQ(ClosednessProblem(mesh), "");
+    EXPECT_EQ(WatertightnessProblem(mesh), "");
     EXPECT_LT(SignedVolume(mesh), 0.0);
-    EXPECT_GT(-SignedVolume(mesh), 0.6 * width * depth * height) << "an L plan removes at most 36%";
+    EXPECT_GT(-SignedVolume(mesh), 0.3 * width * depth * height);
   }
-  EXPECT_EQ(plans, (std::set<std::string>{"box", "L"}));
+  EXPECT_EQ(plans, (std::set<std::string>{"box", "L", "U", "T"}));
+  for (const char* f : {"pillar", "wing_wall", "half_wall", "platform", "step", "alcove", "door", "window", "soffit",
+                        "beam", "sloped_ceiling", "shelf"}) {
+    EXPECT_TRUE(features.contains(f)) << f;
+  }
 }
 
 TEST(ProceduralRoom, IsDeterministicAndVaried) {

@@ -1,15 +1,21 @@
 // Each preset moves the proxy metrics the way the paper's Table 1 shows (solid-method.md
-// 1.3 and 1.4), on the procedural assets. Every row changes one thing from the row
+// 1.3 and 1.4), on the procedural models and the default procedural rooms. Every row changes one thing from the row
 // before, so each check compares a row with its predecessor; a direction counts only
 // when the gap exceeds both estimates' 95% half-widths together. The runs are
 // deterministic (fixed seed), so these are exact regressions of a statistical claim.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <tuple>
 
+#include "fixtures/shared_testdata.h"
 #include "render/test_assets.h"
+#include "solid/convert/convert.h"
 #include "solid/render/params.h"
 #include "solid/render/sample.h"
 
@@ -18,17 +24,35 @@ namespace {
 
 constexpr int64_t kLayouts = 80;
 
+// The embedded default's rooms (`solid convert procedural`: 8 rooms, seed 1), converted
+// once per process, so that the rooms rows run on the rooms every user starts with.
+struct DefaultRooms {
+  std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("solid-default-rooms-" + std::to_string(::getpid()));
+  DefaultRooms() {
+    convert::ConvertOptions options;
+    options.jobs = 2;
+    const auto report = convert::ConvertProcedural({.models = 0, .rooms = 8, .seed = 1}, path, options);
+    if (!report.ok() || report->failed != 0) std::abort();
+  }
+  ~DefaultRooms() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
 std::map<std::string, SampleReport> SampleEveryPreset() {
+  static const DefaultRooms rooms;
+  auto library = AssetLibrary::Open(testing::ProceduralAssetsDir(), rooms.path).value();
   std::map<std::string, SampleReport> out;
   for (const std::string& name : PresetNames()) {
     // Rendered at 320x240 and classed as at the presets' 640x480, where Table 1's areas are:
-    // halving leaves the layouts the same, and the masks cost a quarter. (At 160x120 the
-    // medium share moves by 3 points: too coarse for the scale-distribution row.)
+    // halving leaves the layouts the same, and the masks cost a quarter.
     LayoutParams params = LoadPreset(name).value();
     std::tie(params.scale_width, params.scale_height) = ScaleClassResolution(params);
     params.width /= 2;
     params.height /= 2;
-    auto sampler = LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
+    auto sampler = LayoutSampler::Create(params, library).value();
     SampleOptions options;
     options.seed = 2024;
     options.layouts = kLayouts;
@@ -81,14 +105,46 @@ TEST(PresetDirection, EachRowMovesTheMetricsAsTableOneShows) {
   // rotation: more object viewpoints under the same eye-level cameras.
   EXPECT_LT(ShareOfSteepViews(Row("scale-distribution").viewpoints), 0.05);
   EXPECT_GT(ShareOfSteepViews(Row("rotation").viewpoints), 0.3);
-  // scenenet-background: Table 1 has occlusion 33% -> 37% from SceneNet's cluttered shells.
-  // The procedural rooms are empty boxes, rescaled to the same 12 x 12 m as the white cube,
-  // so on them this row moves nothing; only that it is no worse is checked.
-  EXPECT_GE(Row("scenenet-background").metrics.occlusion.mean + Row("scenenet-background").metrics.occlusion.ci95,
-            Row("rotation").metrics.occlusion.mean);
+  // scenenet-background: Table 1 has occlusion 33% -> 37% from SceneNet's shells; the
+  // procedural rooms' pillars, wing and half walls, platforms and L/U/T corners stand
+  // between camera and objects as theirs do.
+  EXPECT_TRUE(ClearlyAbove(Row("scenenet-background").metrics.occlusion, Row("rotation").metrics.occlusion));
   // more-objects: 8.72 -> 13.72 once objects may float.
   EXPECT_TRUE(ClearlyAbove(Row("more-objects").metrics.objects_per_image,
                            Row("scenenet-background").metrics.objects_per_image));
+}
+
+// The same row on the SceneNet RGB-D layout of the shared data (bathroom11), with the
+// procedural models. Its floor is one rectangle walled on three sides: no wall stands
+// between a camera and objects on that floor, and the shower alcove, the one recess,
+// has no floor for either. So the shell cannot occlude there: 200 layouts measure
+// 33.5% +- 1.9 against rotation's 33.8% +- 1.9 (34.3 and 33.9 at 640x480). Only "no
+// lower" is claimed of it, over enough layouts for that to mean something; the strict
+// direction is left to rooms with structure (the test above).
+TEST(PresetDirectionOnSharedData, SceneNetBackgroundIsNoLowerOnTheSharedLayout) {
+  SOLID_SHARED_TESTDATA_OR_SKIP(scenenet, "real/scenenet-rgbd");
+  const std::filesystem::path rooms =
+      std::filesystem::temp_directory_path() / ("solid-direction-rooms-" + std::to_string(::getpid()));
+  convert::ConvertOptions convert_options;
+  convert_options.jobs = 2;
+  ASSERT_EQ(convert::ConvertSceneNet(scenenet, rooms, convert_options).value().failed, 0);
+  auto library = AssetLibrary::Open(testing::ProceduralAssetsDir(), rooms).value();
+  std::map<std::string, SampleReport> reports;
+  for (const std::string name : {"rotation", "scenenet-background"}) {
+    LayoutParams params = LoadPreset(name).value();  // at 320x240: occlusion is a ratio of areas
+    params.width /= 2;
+    params.height /= 2;
+    auto sampler = LayoutSampler::Create(params, library).value();
+    SampleOptions options;
+    options.seed = 2024;
+    options.layouts = 200;
+    options.jobs = 2;
+    reports.emplace(name, RunSample(*sampler, options).value());
+    EXPECT_EQ(reports.at(name).failed_layouts, 0) << name;
+  }
+  std::filesystem::remove_all(rooms);
+  const Estimate& rooms_row = reports.at("scenenet-background").metrics.occlusion;
+  EXPECT_GE(rooms_row.mean + rooms_row.ci95, reports.at("rotation").metrics.occlusion.mean);
 }
 
 }  // namespace
