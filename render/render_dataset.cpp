@@ -69,7 +69,7 @@ RenderedImage RenderImage(const LayoutSampler& sampler, const RenderOptions& opt
   out.lights = generated->lights.ToJson();
   ShadeOptions shading = options.shading;
   shading.threads = 1;  // images run in parallel instead
-  Result<ShadeResult> shaded = Shade(layout, generated->lights, shading, textures);
+  Result<ShadeResult> shaded = Shade(layout, generated->lights, shading, textures, &generated->masks);
   out.stages.shading = MillisecondsSince(start);
   if (!shaded.ok()) {
     out.error = shaded.status().WithContext(fmt::format("image {}", image_id));
@@ -393,6 +393,7 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   m.height = static_cast<uint32_t>(p.height);
   m.image_format = options.format;
   nlohmann::json render = {{"samples_per_pixel", options.shading.samples_per_pixel},
+                           {"sampling", options.shading.sampling == Sampling::kAdaptive ? "adaptive" : "uniform"},
                            {"depth", options.depth},
                            {"query_views",
                             {{"views", options.query_views.views},
