@@ -395,6 +395,9 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     Vec3f sum, radiance, diffuse, f0, n, ng, wo, origin, ambient;
     float exponent = 0, specular_norm = 0;
     bool covered = false, ambient_lit = false, edge = true;
+    // A flat pixel whose first two samples agreed on every light and left the ambient
+    // range: its later samples would add nothing new, so it takes the mean of those two.
+    bool settled = false;
     // Of a flat pixel's first two samples: per light, whether its shadow ray reached the
     // light (1), was blocked (0) or was not traced (-1); whether the ambient ray left its range.
     std::array<std::array<int8_t, 2>, kReusedLights> reached;
@@ -412,7 +415,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     std::vector<PixelSampler> samplers(kLanes, PixelSampler(nx, ny, dims));
     std::vector<Rng> rngs(kLanes, Rng(0, kShadingStream));
     std::array<Lane, kLanes> lanes;
-    alignas(64) int inside[kLanes], hit[kLanes], valid[kLanes], traced[kLanes];
+    alignas(64) int inside[kLanes], hit[kLanes], active[kLanes], valid[kLanes], traced[kLanes];
     std::array<Vec3f, kLanes> wi;
     std::array<float, kLanes> irradiance;
     RTCRayHit16 rays;
@@ -483,13 +486,14 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             lane.ambient = scene.ambient + scene.sky * ((1 + lane.n.z) / 2);
             lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
           }
-          if (!AnyValid(hit)) continue;
+          for (int i = 0; i < kLanes; ++i) active[i] = hit[i] && !lanes[i].settled ? -1 : 0;
+          if (!AnyValid(active)) continue;
           for (size_t l = 0; l < scene.lights.size(); ++l) {
             const ShadingLight& light = scene.lights[l];
             for (int i = 0; i < kLanes; ++i) {
               valid[i] = 0;
               traced[i] = 0;
-              if (!hit[i]) continue;
+              if (!active[i]) continue;
               Lane& lane = lanes[i];
               Vec3f point = light.position;
               if (light.area) {
@@ -526,7 +530,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             count(traced);
             if (AnyValid(traced)) rtcOccluded16(traced, scene.scene, &secondary, &shadow);
             for (int i = 0; i < kLanes; ++i) {
-              if (!hit[i]) continue;
+              if (!active[i]) continue;
               Lane& lane = lanes[i];
               if (traced[i] && shadow.tfar[i] < 0) valid[i] = 0;
               if (!lane.edge && s < 2 && l < kReusedLights) lane.reached[l][s] = traced[i] ? (valid[i] ? 1 : 0) : -1;
@@ -539,7 +543,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
           for (int i = 0; i < kLanes; ++i) {
             valid[i] = 0;
             traced[i] = 0;
-            if (!hit[i]) continue;
+            if (!active[i]) continue;
             Lane& lane = lanes[i];
             if (!lane.ambient_lit) continue;
             const auto a = samplers[i].Get(s, dims - 1);
@@ -558,7 +562,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
           count(traced);
           if (AnyValid(traced)) rtcIntersect16(traced, scene.scene, &secondary, &rays);
           for (int i = 0; i < kLanes; ++i) {
-            if (!hit[i]) continue;
+            if (!active[i]) continue;
             Lane& lane = lanes[i];
             if (valid[i]) {
               // Obscurance rather than binary occlusion: a blocker at distance t lets
@@ -571,11 +575,18 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             lane.sum = lane.sum + Vec3f{std::min(lane.radiance.x, kMaxSampleRadiance),
                                         std::min(lane.radiance.y, kMaxSampleRadiance),
                                         std::min(lane.radiance.z, kMaxSampleRadiance)};
+            if (s == 1 && spp > 2 && !lane.edge) {
+              bool agreed = !lane.ambient_lit || (lane.open[0] && lane.open[1]);
+              for (size_t l = 0; l < scene.lights.size() && agreed; ++l) {
+                agreed = l < kReusedLights && lane.reached[l][0] == lane.reached[l][1];
+              }
+              lane.settled = agreed;
+            }
           }
         }
-        const float inv = 1.0f / static_cast<float>(spp);
         for (int i = 0; i < kLanes; ++i) {
           if (!inside[i]) continue;
+          const float inv = 1.0f / static_cast<float>(lanes[i].settled ? 2 : spp);
           const size_t pixel = static_cast<size_t>(ty * kTile + i / kTile) * width + tx * kTile + i % kTile;
           film.rgb[3 * pixel] = lanes[i].sum.x * inv;
           film.rgb[3 * pixel + 1] = lanes[i].sum.y * inv;

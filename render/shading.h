@@ -96,8 +96,10 @@ struct Film {
 // the mean of 2x2 texture taps over the pixel's footprint, and shares that hit among its
 // samples; from the third sample on, a light whose first two shadow rays agree (both
 // reach it, or both are blocked) reuses that answer instead of tracing, and so does an
-// ambient term whose first two rays both left their range (open). The light points and
-// ambient directions are still drawn per sample, so the light's solid angle stays sampled.
+// ambient term whose first two rays both left their range (open); the light points and
+// ambient directions are still drawn per sample. A flat pixel where all of them agree
+// stops after two samples and takes their mean: what varies over its later samples is
+// then only the unoccluded light over a small light's area, which its strata barely change.
 struct FilmSampling {
   int spp = 4;
   // 1 for an edge pixel, 0 for a flat one, row-major; empty: every pixel is an edge.
