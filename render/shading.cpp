@@ -297,7 +297,7 @@ Vec3f MeanBaseColor(const gltf::Material* material, const DecodedTextures* textu
 
 namespace {
 
-// The base colour over the footprint of the pixel whose centre ray (along `dir`) hit `h`:
+// The base colour over the footprint of the pixel whose centre ray from `eye` hit `h`:
 // the mean of 2x2 taps at the footprint's quarter points, found by intersecting the rays
 // through the neighbouring pixel centres (dir_dx, dir_dy) with the hit's plane (ray
 // differentials). A flat pixel traces one camera ray; this filters the texture detail
