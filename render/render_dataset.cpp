@@ -393,7 +393,6 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   m.height = static_cast<uint32_t>(p.height);
   m.image_format = options.format;
   nlohmann::json render = {{"samples_per_pixel", options.shading.samples_per_pixel},
-                           {"sampling", options.shading.sampling == Sampling::kAdaptive ? "adaptive" : "uniform"},
                            {"depth", options.depth},
                            {"query_views",
                             {{"views", options.query_views.views},
@@ -404,6 +403,8 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
                              {"samples_per_pixel", options.query_views.samples_per_pixel}}},
                            {"query_shard_models", options.query_shard_models}};
   if (options.format != ImageFormat::kPng) render["quality"] = options.quality;
+  // Only when not the default, so that datasets rendered before adaptive sampling keep their manifest.
+  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive";
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;
