@@ -193,8 +193,8 @@ Status Run(const fs::path& assets, const std::string& preset, int layouts, int r
   return Status::Ok();
 }
 
-// "uniform:4" (spp samples of everything per pixel, today's renderer) or "adaptive:4"
-// (the mask-driven default).
+// "uniform:4" (spp samples of everything per pixel, `solid render`'s default) or
+// "adaptive:6" (mask-driven, shade.h Sampling::kAdaptive).
 Result<Setting> ParseSetting(const std::string& text) {
   const size_t colon = text.find(':');
   Setting s{text, {}};
@@ -218,7 +218,8 @@ int main(int argc, char** argv) {
   fs::path assets, cache, out;
   std::string preset = "more-objects";
   int layouts = 8, reference_spp = 256, threads = 1;
-  std::vector<std::string> setting_names = {"uniform:1", "uniform:2", "uniform:4", "uniform:8", "adaptive:4"};
+  std::vector<std::string> setting_names = {"uniform:1",  "uniform:2",  "uniform:4",  "uniform:8",
+                                            "adaptive:2", "adaptive:4", "adaptive:6", "adaptive:8"};
   app.add_option("--assets", assets,
                  "assets directory (default: `solid convert procedural --models 64 --rooms 8 --seed 1`, generated)");
   app.add_option("--preset", preset, "preset of the layouts")->capture_default_str();
