@@ -52,7 +52,7 @@ Status Run(const std::filesystem::path& assets, const std::vector<std::string>& 
       for (int i = 0; i < layouts; ++i) {
         SOLID_ASSIGN_OR_RETURN(GeneratedLayout g, GenerateLayout(*sampler, 1, i, MaskPassOptions{threads}));
         SOLID_ASSIGN_OR_RETURN(LightRig lights, SampleLights(g.layout));
-        SOLID_ASSIGN_OR_RETURN(ShadeResult shaded, Shade(g.layout, lights, ShadeOptions{r.spp, threads}, textures));
+        SOLID_ASSIGN_OR_RETURN(ShadeResult shaded, Shade(g.layout, lights, ShadeOptions{r.spp, threads}, textures, &g.masks));
         ms += shaded.ms;
         if (!out.empty()) {
           SOLID_RETURN_IF_ERROR(WritePng(out / fmt::format("{}-{}x{}-{:03}.png", preset, r.width, r.height, i),

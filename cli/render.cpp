@@ -14,7 +14,7 @@ namespace {
 
 struct RenderFlags {
   ParamsFlags params;
-  std::string assets, rooms, out, shards, format = "png";
+  std::string assets, rooms, out, shards, format = "png", sampling = "uniform";
   int64_t images = 1000, shard_size = 256, shard = -1;
   uint64_t seed = 1;
   int jobs = 0, quality = 90, samples_per_pixel = 4, query_size = 224;
@@ -93,6 +93,7 @@ int Run(const RenderFlags& f) {
   options.quality = f.quality;
   options.depth = f.depth;
   options.shading.samples_per_pixel = f.samples_per_pixel;
+  options.shading.sampling = f.sampling == "adaptive" ? render::Sampling::kAdaptive : render::Sampling::kUniform;
   // Query views are rendered at 384 px for 224 stored (solid-method 2.8), the object
   // spanning about 80% of the frame, and cropped: keep that ratio for other sizes.
   options.query_views.long_side = f.query_size;
@@ -166,6 +167,11 @@ Command AddRender(CLI::App& app) {
   cmd->add_flag("--depth", f->depth, "Store depth as OpenEXR (half float, ZIP)");
   cmd->add_option("--spp", f->samples_per_pixel, "Samples per pixel (stratified), of images and query views")->capture_default_str()->check(
       CLI::Range(1, 1024));
+  cmd->add_option("--sampling", f->sampling,
+                  "Sampling of the images: uniform (spp camera rays per pixel) or adaptive (mask-driven: edges get "
+                  "them, flat pixels one camera ray and shared light rays)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"uniform", "adaptive"}));
   cmd->add_option("--query-size", f->query_size, "Long side of query views, pixels")->capture_default_str()->check(
       CLI::Range(16, 4096));
   cmd->add_flag("--no-queries", f->no_queries, "Do not render query views");

@@ -108,7 +108,7 @@ Result<QueryViewsResult> RenderQueryViews(const std::shared_ptr<const LoadedAsse
     Camera camera;
     if (!LookAt(eye, {0, 0, 0}, options.hfov_deg, n, n, &camera)) return InternalError(where + ": no camera");
     scene.lights[0].position = ToFloat(eye);
-    const Film film = RenderFilm(scene, camera, n, n, 1e-3 * out.distance, options.samples_per_pixel,
+    const Film film = RenderFilm(scene, camera, n, n, 1e-3 * out.distance, FilmSampling{options.samples_per_pixel, {}},
                                  options.threads, MixSeed(seed, static_cast<uint64_t>(v)));
     int x0 = n, y0 = n, x1 = 0, y1 = 0;
     for (int y = 0; y < n; ++y) {

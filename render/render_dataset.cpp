@@ -70,7 +70,7 @@ RenderedImage RenderImage(const LayoutSampler& sampler, const RenderOptions& opt
   out.lights = generated->lights.ToJson();
   ShadeOptions shading = options.shading;
   shading.threads = 1;  // images run in parallel instead
-  Result<ShadeResult> shaded = Shade(layout, generated->lights, shading, textures);
+  Result<ShadeResult> shaded = Shade(layout, generated->lights, shading, textures, &generated->masks);
   out.stages.shading = MillisecondsSince(start);
   if (!shaded.ok()) {
     out.error = shaded.status().WithContext(fmt::format("image {}", image_id));
@@ -405,6 +405,8 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
                              {"samples_per_pixel", options.query_views.samples_per_pixel}}},
                            {"query_shard_models", options.query_shard_models}};
   if (options.format != ImageFormat::kPng) render["quality"] = options.quality;
+  // Only when not the default, so that datasets rendered before adaptive sampling keep their manifest.
+  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive";
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;

@@ -198,7 +198,7 @@ Result<std::shared_ptr<const DecodedTextures>> TextureCache::Get(const std::vect
 }
 
 Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const ShadeOptions& options,
-                          TextureCache& textures) {
+                          TextureCache& textures, const MaskPassResult* masks) {
   const auto start = std::chrono::steady_clock::now();
   if (options.samples_per_pixel < 1 || options.samples_per_pixel > 1024) {
     return InvalidArgumentError(fmt::format("shade: samples_per_pixel {} outside [1, 1024]", options.samples_per_pixel));
@@ -210,6 +210,16 @@ Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const Sh
   }
   if (layout.width <= 0 || layout.height <= 0) {
     return InvalidArgumentError(fmt::format("shade: layout {}: image {}x{}", layout.index, layout.width, layout.height));
+  }
+  FilmSampling sampling{options.samples_per_pixel, {}};
+  if (options.sampling == Sampling::kAdaptive) {
+    const size_t pixels = static_cast<size_t>(layout.width) * layout.height;
+    if (masks == nullptr || masks->width != layout.width || masks->height != layout.height ||
+        masks->ids.size() != pixels || masks->depth.size() != pixels) {
+      return InvalidArgumentError(fmt::format("shade: layout {}: adaptive sampling needs the layout's {}x{} mask pass",
+                                              layout.index, layout.width, layout.height));
+    }
+    sampling.edges = EdgePixels(*masks);
   }
   const RoomShell& room = *layout.room;
   ShadingScene scene;
@@ -290,11 +300,12 @@ Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const Sh
   scene.ambient = scene.ambient + Vec3f{kWorldGrey, kWorldGrey, kWorldGrey};
   scene.background = {kWorldGrey, kWorldGrey, kWorldGrey};
 
-  const Film film = RenderFilm(scene, layout.camera, layout.width, layout.height, layout.near,
-                               options.samples_per_pixel, options.threads,
+  const Film film = RenderFilm(scene, layout.camera, layout.width, layout.height, layout.near, sampling,
+                               options.threads,
                                MixSeed(layout.seed, static_cast<uint64_t>(layout.restart)));
   ShadeResult out;
   out.image = EncodeFilm(film);
+  out.rays = film.rays;
   out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return out;
 }

@@ -21,6 +21,8 @@ constexpr float kInfinity = std::numeric_limits<float>::infinity();
 // A single sample brighter than this would whiten its pixel alone (a firefly).
 constexpr float kMaxSampleRadiance = 4.0f;
 constexpr float kMaxSpecularExponent = 1024.0f;
+// A relative depth step between neighbouring pixel centres that makes both edge pixels.
+constexpr float kDepthStep = 0.02f;
 
 const std::array<float, 256>& SrgbTable() {
   static const std::array<float, 256> table = [] {
@@ -67,6 +69,8 @@ void Strata(int n, int* nx, int* ny) {
 struct Hit {
   Vec3f position, geometric_normal, shading_normal;
   float u = 0, v = 0;
+  Vec3f corners[3];    // the triangle, world
+  float corner_uv[6];  // its vertices' uvs
   const gltf::Material* material = nullptr;
   const DecodedTextures* textures = nullptr;
 };
@@ -98,6 +102,12 @@ Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames,
   // Two-sided: face the viewer; the shading normal stays on the geometric side.
   if (Dot(h.geometric_normal, dir) > 0) h.geometric_normal = h.geometric_normal * -1.0f;
   if (Dot(h.shading_normal, h.geometric_normal) < 0) h.shading_normal = h.shading_normal * -1.0f;
+  const uint32_t corners[3] = {i0, i1, i2};
+  for (int k = 0; k < 3; ++k) {
+    h.corners[k] = f.rotation * (position(corners[k]) * f.scale) + f.translation;
+    h.corner_uv[2 * k] = m.uvs[2 * corners[k]];
+    h.corner_uv[2 * k + 1] = m.uvs[2 * corners[k] + 1];
+  }
   h.u = m.uvs[2 * i0] * b0 + m.uvs[2 * i1] * b1 + m.uvs[2 * i2] * b2;
   h.v = m.uvs[2 * i0 + 1] * b0 + m.uvs[2 * i1 + 1] * b1 + m.uvs[2 * i2 + 1] * b2;
   const uint32_t material = m.triangle_material[prim];
@@ -111,6 +121,8 @@ Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames,
 // rays: a tile's rays are coherent enough that packets beat single rays by far.
 constexpr int kTile = 4;
 constexpr int kLanes = kTile * kTile;
+// Lights whose shadow answers a flat pixel may reuse (FilmSampling); any further ones always trace.
+constexpr size_t kReusedLights = 4;
 
 void SetRay(RTCRay16* r, int i, Vec3f origin, Vec3f dir, float tnear, float tfar) {
   r->org_x[i] = origin.x;
@@ -283,8 +295,80 @@ Vec3f MeanBaseColor(const gltf::Material* material, const DecodedTextures* textu
   return tex == nullptr ? Factor(material) : Factor(material) * tex->mean_linear;
 }
 
-Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near, int spp,
-                int threads, uint64_t seed) {
+namespace {
+
+// The base colour over the footprint of the pixel whose centre ray from `eye` hit `h`:
+// the mean of 2x2 taps at the footprint's quarter points, found by intersecting the rays
+// through the neighbouring pixel centres (dir_dx, dir_dy) with the hit's plane (ray
+// differentials). A flat pixel traces one camera ray; this filters the texture detail
+// within it as an edge pixel's four jittered camera rays do, at the cost of three more
+// texture lookups instead of three more camera rays.
+Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
+  if (TextureOf(h.material, h.textures) == nullptr) return BaseColor(h.material, h.textures, h.u, h.v);
+  const Vec3f e1 = h.corners[1] - h.corners[0], e2 = h.corners[2] - h.corners[0];
+  const Vec3f n = Cross(e1, e2);
+  const float d00 = Dot(e1, e1), d01 = Dot(e1, e2), d11 = Dot(e2, e2);
+  const float denominator = d00 * d11 - d01 * d01;
+  auto uv_along = [&](Vec3f dir, float* u, float* v) {
+    const float dn = Dot(dir, n);
+    if (dn == 0) return false;
+    const float t = Dot(h.corners[0] - eye, n) / dn;
+    if (!(t > 0)) return false;
+    const Vec3f q = eye + dir * t - h.corners[0];
+    const float d20 = Dot(q, e1), d21 = Dot(q, e2);
+    const float b1 = (d11 * d20 - d01 * d21) / denominator, b2 = (d00 * d21 - d01 * d20) / denominator;
+    const float b0 = 1 - b1 - b2;
+    *u = h.corner_uv[0] * b0 + h.corner_uv[2] * b1 + h.corner_uv[4] * b2;
+    *v = h.corner_uv[1] * b0 + h.corner_uv[3] * b1 + h.corner_uv[5] * b2;
+    return std::isfinite(*u) && std::isfinite(*v);
+  };
+  float ux = 0, vx = 0, uy = 0, vy = 0;
+  if (!(denominator > 0) || !uv_along(dir_dx, &ux, &vx) || !uv_along(dir_dy, &uy, &vy)) {
+    return BaseColor(h.material, h.textures, h.u, h.v);
+  }
+  const float dux = ux - h.u, dvx = vx - h.v, duy = uy - h.u, dvy = vy - h.v;
+  Vec3f sum;
+  for (const float sx : {-0.25f, 0.25f}) {
+    for (const float sy : {-0.25f, 0.25f}) {
+      sum = sum + BaseColor(h.material, h.textures, h.u + sx * dux + sy * duy, h.v + sx * dvx + sy * dvy);
+    }
+  }
+  return sum * 0.25f;
+}
+
+}  // namespace
+
+std::vector<uint8_t> EdgePixels(const MaskPassResult& masks) {
+  const int w = masks.width, h = masks.height;
+  std::vector<uint8_t> edges(static_cast<size_t>(w) * h, 0);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      const uint32_t id = masks.ids[p];
+      const float d = masks.depth[p];
+      bool edge = false;
+      for (int dy = -1; dy <= 1 && !edge; ++dy) {
+        const int qy = y + dy;
+        if (qy < 0 || qy >= h) continue;
+        for (int dx = -1; dx <= 1 && !edge; ++dx) {
+          const int qx = x + dx;
+          if (qx < 0 || qx >= w) continue;
+          const size_t q = static_cast<size_t>(qy) * w + qx;
+          const float e = masks.depth[q];
+          // Infinite depths (rays that leave the scene) differ from any finite one: inf - inf is NaN.
+          edge = masks.ids[q] != id || (d != e && !(std::fabs(d - e) <= kDepthStep * std::min(d, e)));
+        }
+      }
+      edges[p] = edge ? 1 : 0;
+    }
+  }
+  return edges;
+}
+
+Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near,
+                const FilmSampling& sampling, int threads, uint64_t seed) {
+  const int spp = sampling.spp;
+  const bool adaptive = !sampling.edges.empty();
   Film film;
   film.width = width;
   film.height = height;
@@ -304,12 +388,20 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
   const int dims = static_cast<int>(scene.lights.size()) + 1;  // + ambient occlusion
   const int tiles_x = (width + kTile - 1) / kTile, tile_rows = (height + kTile - 1) / kTile;
   std::atomic<int> next_row{0};
+  std::atomic<uint64_t> total_rays{0};
 
   // What one lane (pixel) carries from its camera ray's hit to its light and ambient rays.
   struct Lane {
-    Vec3f sum, radiance, diffuse, f0, n, ng, wo, origin, ambient, wi;
-    float exponent = 0, specular_norm = 0, irradiance = 0;
-    bool covered = false, ambient_lit = false;
+    Vec3f sum, radiance, diffuse, f0, n, ng, wo, origin, ambient;
+    float exponent = 0, specular_norm = 0;
+    bool covered = false, ambient_lit = false, edge = true;
+    // A flat pixel whose first two samples agreed on every light and left the ambient
+    // range: its later samples would add nothing new, so it takes the mean of those two.
+    bool settled = false;
+    // Of a flat pixel's first two samples: per light, whether its shadow ray reached the
+    // light (1), was blocked (0) or was not traced (-1); whether the ambient ray left its range.
+    std::array<std::array<int8_t, 2>, kReusedLights> reached;
+    std::array<bool, 2> open;
   };
 
   auto work = [&] {
@@ -323,40 +415,62 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     std::vector<PixelSampler> samplers(kLanes, PixelSampler(nx, ny, dims));
     std::vector<Rng> rngs(kLanes, Rng(0, kShadingStream));
     std::array<Lane, kLanes> lanes;
-    alignas(64) int inside[kLanes], hit[kLanes], valid[kLanes];
+    alignas(64) int inside[kLanes], hit[kLanes], active[kLanes], valid[kLanes], traced[kLanes];
+    std::array<Vec3f, kLanes> wi;
+    std::array<float, kLanes> irradiance;
     RTCRayHit16 rays;
     RTCRay16 shadow;
+    uint64_t traced_rays = 0;
+    auto count = [&traced_rays](const int* mask) {
+      for (int i = 0; i < kLanes; ++i) traced_rays += mask[i] != 0;
+    };
     for (int ty; (ty = next_row.fetch_add(1, std::memory_order_relaxed)) < tile_rows;) {
       for (int tx = 0; tx < tiles_x; ++tx) {
         for (int i = 0; i < kLanes; ++i) {
           const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
           inside[i] = x < width && y < height ? -1 : 0;
+          hit[i] = 0;
           if (!inside[i]) continue;
           rngs[i] = Rng(MixSeed(seed, static_cast<size_t>(y) * width + x), kShadingStream);
           samplers[i].Start(&rngs[i]);
           lanes[i] = Lane{};
+          lanes[i].edge = !adaptive || sampling.edges[static_cast<size_t>(y) * width + x] != 0;
         }
         for (int s = 0; s < spp; ++s) {
+          // Edge pixels trace a camera ray per sample; flat ones one, through their centre,
+          // whose hit all their samples share.
           for (int i = 0; i < kLanes; ++i) {
-            if (!inside[i]) continue;
-            const auto jitter = samplers[i].Get(s, -1);
+            traced[i] = inside[i] && (s == 0 || lanes[i].edge) ? -1 : 0;
+            if (!traced[i]) continue;
+            const auto jitter = lanes[i].edge ? samplers[i].Get(s, -1) : std::array<float, 2>{0.5f, 0.5f};
             const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
             const Vec3f dir = Normalized(ToFloat(RayDirection(camera, x + jitter[0], y + jitter[1])));
             SetRayHit(&rays, i, eye, dir, static_cast<float>(near), kInfinity);
           }
-          rtcIntersect16(inside, scene.scene, &primary, &rays);
+          count(traced);
+          if (AnyValid(traced)) rtcIntersect16(traced, scene.scene, &primary, &rays);
           for (int i = 0; i < kLanes; ++i) {
-            hit[i] = inside[i] && rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
+            if (!inside[i]) continue;
             Lane& lane = lanes[i];
+            if (traced[i]) hit[i] = rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
             if (!hit[i]) {
-              if (inside[i]) lane.sum = lane.sum + scene.background;
+              lane.sum = lane.sum + scene.background;
               continue;
             }
+            lane.radiance = {};
+            if (!traced[i]) continue;
             lane.covered = true;
             const Vec3f dir{rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
             const Hit h = Surface(scene, frames, rays.hit.instID[0][i], rays.hit.primID[i], rays.hit.u[i],
                                   rays.hit.v[i], dir);
-            const Vec3f base = BaseColor(h.material, h.textures, h.u, h.v);
+            Vec3f base;
+            if (lane.edge) {
+              base = BaseColor(h.material, h.textures, h.u, h.v);
+            } else {
+              const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
+              base = FootprintBaseColor(h, eye, ToFloat(RayDirection(camera, x + 1.5, y + 0.5)),
+                                        ToFloat(RayDirection(camera, x + 0.5, y + 1.5)));
+            }
             const float metallic = h.material != nullptr ? std::clamp(h.material->metallic, 0.0f, 1.0f) : 0.0f;
             const float roughness = h.material != nullptr ? std::clamp(h.material->roughness, 0.0f, 1.0f) : 1.0f;
             lane.diffuse = base * ((1 - metallic) / kPi);
@@ -369,57 +483,73 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             lane.wo = dir * -1.0f;
             const float extent = std::max({std::fabs(h.position.x), std::fabs(h.position.y), std::fabs(h.position.z)});
             lane.origin = h.position + lane.ng * (1e-4f * (1 + extent));
-            lane.radiance = {};
+            lane.ambient = scene.ambient + scene.sky * ((1 + lane.n.z) / 2);
+            lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
           }
-          if (!AnyValid(hit)) continue;
+          for (int i = 0; i < kLanes; ++i) active[i] = hit[i] && !lanes[i].settled ? -1 : 0;
+          if (!AnyValid(active)) continue;
           for (size_t l = 0; l < scene.lights.size(); ++l) {
             const ShadingLight& light = scene.lights[l];
             for (int i = 0; i < kLanes; ++i) {
               valid[i] = 0;
-              if (!hit[i]) continue;
+              traced[i] = 0;
+              if (!active[i]) continue;
               Lane& lane = lanes[i];
               Vec3f point = light.position;
               if (light.area) {
                 const auto a = samplers[i].Get(s, static_cast<int>(l));
                 point = point + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
               }
-              Vec3f wi = point - lane.origin;
-              const float d2 = std::max(Dot(wi, wi), 1e-4f);
+              Vec3f w = point - lane.origin;
+              const float d2 = std::max(Dot(w, w), 1e-4f);
               const float d = std::sqrt(d2);
-              wi = wi * (1 / d);
-              const float cos_s = Dot(lane.n, wi);
+              w = w * (1 / d);
+              const float cos_s = Dot(lane.n, w);
               // Below the geometric surface the shadow ray would hit its own triangle.
-              if (cos_s <= 0 || Dot(lane.ng, wi) <= 0) continue;
+              if (cos_s <= 0 || Dot(lane.ng, w) <= 0) continue;
               // Cycles: an area light's radiance is P / (4 A); a point light's intensity P / (4 pi^2).
               if (light.area) {
-                const float cos_l = -Dot(light.normal, wi);
+                const float cos_l = -Dot(light.normal, w);
                 if (cos_l <= 0) continue;
-                lane.irradiance = light.power_w / 4 * cos_l * cos_s / d2;
+                irradiance[i] = light.power_w / 4 * cos_l * cos_s / d2;
               } else {
-                lane.irradiance = light.power_w / (4 * kPi * kPi) * cos_s / d2;
+                irradiance[i] = light.power_w / (4 * kPi * kPi) * cos_s / d2;
               }
-              lane.wi = wi;
-              SetRay(&shadow, i, lane.origin, wi, 0.0f, d);
+              wi[i] = w;
               valid[i] = -1;
+              // Outside penumbrae a flat pixel's first two shadow rays agree, and so would
+              // the rest: those reuse the answer instead of tracing.
+              if (!lane.edge && s >= 2 && l < kReusedLights && lane.reached[l][0] >= 0 &&
+                  lane.reached[l][0] == lane.reached[l][1]) {
+                if (lane.reached[l][0] == 0) valid[i] = 0;
+                continue;
+              }
+              traced[i] = -1;
+              SetRay(&shadow, i, lane.origin, w, 0.0f, d);
             }
-            if (!AnyValid(valid)) continue;
-            rtcOccluded16(valid, scene.scene, &secondary, &shadow);
+            count(traced);
+            if (AnyValid(traced)) rtcOccluded16(traced, scene.scene, &secondary, &shadow);
             for (int i = 0; i < kLanes; ++i) {
-              if (!valid[i] || shadow.tfar[i] < 0) continue;
+              if (!active[i]) continue;
               Lane& lane = lanes[i];
-              const Vec3f half = Normalized(lane.wi + lane.wo);
+              if (traced[i] && shadow.tfar[i] < 0) valid[i] = 0;
+              if (!lane.edge && s < 2 && l < kReusedLights) lane.reached[l][s] = traced[i] ? (valid[i] ? 1 : 0) : -1;
+              if (!valid[i]) continue;
+              const Vec3f half = Normalized(wi[i] + lane.wo);
               const float spec = lane.specular_norm * std::pow(std::max(Dot(lane.n, half), 0.0f), lane.exponent);
-              lane.radiance = lane.radiance + (lane.diffuse + lane.f0 * spec) * lane.irradiance;
+              lane.radiance = lane.radiance + (lane.diffuse + lane.f0 * spec) * irradiance[i];
             }
           }
           for (int i = 0; i < kLanes; ++i) {
             valid[i] = 0;
-            if (!hit[i]) continue;
+            traced[i] = 0;
+            if (!active[i]) continue;
             Lane& lane = lanes[i];
-            lane.ambient = scene.ambient + scene.sky * ((1 + lane.n.z) / 2);
-            lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
             if (!lane.ambient_lit) continue;
             const auto a = samplers[i].Get(s, dims - 1);
+            valid[i] = -1;
+            // A flat pixel whose first two ambient rays left their range is open.
+            if (!lane.edge && s >= 2 && lane.open[0] && lane.open[1]) continue;
             const float r = std::sqrt(a[0]), phi = 2 * kPi * a[1];
             Vec3f t, b;
             Basis(lane.n, &t, &b);
@@ -427,28 +557,36 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             // A direction under the geometric surface (smooth-shaded silhouettes) counts as open.
             if (Dot(wa, lane.ng) <= 0) continue;
             SetRayHit(&rays, i, lane.origin, wa, 0.0f, scene.ambient_occlusion_m);
-            valid[i] = -1;
+            traced[i] = -1;
           }
-          if (AnyValid(valid)) rtcIntersect16(valid, scene.scene, &secondary, &rays);
+          count(traced);
+          if (AnyValid(traced)) rtcIntersect16(traced, scene.scene, &secondary, &rays);
           for (int i = 0; i < kLanes; ++i) {
-            if (!hit[i]) continue;
+            if (!active[i]) continue;
             Lane& lane = lanes[i];
-            if (lane.ambient_lit) {
+            if (valid[i]) {
               // Obscurance rather than binary occlusion: a blocker at distance t lets
               // t / range through, which is much less noisy at a few rays per pixel.
-              const float open = valid[i] && rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID
-                                     ? rays.ray.tfar[i] / scene.ambient_occlusion_m
-                                     : 1.0f;
+              const bool blocked = traced[i] && rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
+              const float open = blocked ? rays.ray.tfar[i] / scene.ambient_occlusion_m : 1.0f;
+              if (s < 2) lane.open[s] = !blocked;
               lane.radiance = lane.radiance + lane.diffuse * (kPi * open) * lane.ambient;
             }
             lane.sum = lane.sum + Vec3f{std::min(lane.radiance.x, kMaxSampleRadiance),
                                         std::min(lane.radiance.y, kMaxSampleRadiance),
                                         std::min(lane.radiance.z, kMaxSampleRadiance)};
+            if (s == 1 && spp > 2 && !lane.edge) {
+              bool agreed = !lane.ambient_lit || (lane.open[0] && lane.open[1]);
+              for (size_t l = 0; l < scene.lights.size() && agreed; ++l) {
+                agreed = l < kReusedLights && lane.reached[l][0] == lane.reached[l][1];
+              }
+              lane.settled = agreed;
+            }
           }
         }
-        const float inv = 1.0f / static_cast<float>(spp);
         for (int i = 0; i < kLanes; ++i) {
           if (!inside[i]) continue;
+          const float inv = 1.0f / static_cast<float>(lanes[i].settled ? 2 : spp);
           const size_t pixel = static_cast<size_t>(ty * kTile + i / kTile) * width + tx * kTile + i % kTile;
           film.rgb[3 * pixel] = lanes[i].sum.x * inv;
           film.rgb[3 * pixel + 1] = lanes[i].sum.y * inv;
@@ -457,8 +595,10 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
         }
       }
     }
+    total_rays += traced_rays;
   };
   RunOnThreads(std::clamp(threads, 1, std::max(1, tile_rows)), work);
+  film.rays = total_rays;
   return film;
 }
 

@@ -15,6 +15,7 @@
 #include "solid/formats/image_codec.h"
 #include "solid/render/assets.h"
 #include "solid/render/layout.h"
+#include "solid/render/mask_pass.h"
 
 namespace solid::render {
 
@@ -85,12 +86,35 @@ struct Film {
   int width = 0, height = 0;
   std::vector<float> rgb;  // linear radiance, 3 per pixel, row-major
   std::vector<uint8_t> covered;
+  uint64_t rays = 0;  // traced: camera, shadow and ambient
 };
 
-// Traces width x height pixels of `camera` with spp stratified samples each, pixel p
-// seeded with MixSeed(seed, p) on the shading stream, rows shared by `threads`.
-Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near, int spp,
-                int threads, uint64_t seed);
+// How a film spends its rays. Every pixel gets spp samples of each light and of the
+// ambient term, stratified. An edge pixel traces a camera ray per sample (stratified
+// jitter, a box filter) and lights each hit with one shadow ray per light and one ambient
+// ray. A flat pixel traces one camera ray, through its centre, takes its base colour as
+// the mean of 2x2 texture taps over the pixel's footprint, and shares that hit among its
+// samples; from the third sample on, a light whose first two shadow rays agree (both
+// reach it, or both are blocked) reuses that answer instead of tracing, and so does an
+// ambient term whose first two rays both left their range (open); the light points and
+// ambient directions are still drawn per sample. A flat pixel where all of them agree
+// stops after two samples and takes their mean: what varies over its later samples is
+// then only the unoccluded light over a small light's area, which its strata barely change.
+struct FilmSampling {
+  int spp = 4;
+  // 1 for an edge pixel, 0 for a flat one, row-major; empty: every pixel is an edge.
+  std::vector<uint8_t> edges;
+};
+
+// FilmSampling::edges from a mask pass: 1 where a pixel's 3x3 neighbourhood holds another
+// visible id (object or room) or a depth more than 2% nearer or farther (occlusion
+// boundaries within one object or the room), where the pixel's area may span two surfaces.
+std::vector<uint8_t> EdgePixels(const MaskPassResult& masks);
+
+// Traces width x height pixels of `camera` as `sampling` says, pixel p seeded with
+// MixSeed(seed, p) on the shading stream, rows shared by `threads`.
+Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near,
+                const FilmSampling& sampling, int threads, uint64_t seed);
 
 // sRGB 8-bit RGB of a linear film, tone mapped by ToneMap.
 Image8 EncodeFilm(const Film& film);

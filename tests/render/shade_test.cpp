@@ -85,9 +85,9 @@ TEST(Shade, SameBytesForAnyThreadCountAndRerun) {
   const LightRig lights = SampleLights(g.layout).value();
   EXPECT_EQ(lights.ToJson(), SampleLights(g.layout).value().ToJson());
   TextureCache textures;
-  const ShadeResult one = Shade(g.layout, lights, ShadeOptions{4, 1}, textures).value();
-  const ShadeResult two = Shade(g.layout, lights, ShadeOptions{4, 2}, textures).value();
-  const ShadeResult again = Shade(g.layout, lights, ShadeOptions{4, 3}, textures).value();
+  const ShadeResult one = Shade(g.layout, lights, ShadeOptions{4, 1}, textures, &g.masks).value();
+  const ShadeResult two = Shade(g.layout, lights, ShadeOptions{4, 2}, textures, &g.masks).value();
+  const ShadeResult again = Shade(g.layout, lights, ShadeOptions{4, 3}, textures, &g.masks).value();
   ASSERT_EQ(one.image.width, 96u);
   ASSERT_EQ(one.image.height, 72u);
   ASSERT_EQ(one.image.channels, 3u);
@@ -106,7 +106,7 @@ TEST(Shade, RedObjectIsRedAtItsMaskPixels) {
   OneBox scene({0, 0, 1}, {1, 1, 1}, {0.8f, 0.05f, 0.05f, 1}, {0, -5, 1.5}, {0, 0, 1}, {-1.5, -3, 3});
   const MaskPassResult masks = RunMaskPass(scene.layout, 1).value();
   TextureCache textures;
-  const Image8 image = Shade(scene.layout, scene.lights, ShadeOptions{4, 1}, textures).value().image;
+  const Image8 image = Shade(scene.layout, scene.lights, ShadeOptions{4, 1}, textures, &masks).value().image;
   int checked = 0;
   for (int y = 1; y + 1 < kHeight; ++y) {
     for (int x = 1; x + 1 < kWidth; ++x) {
@@ -133,8 +133,9 @@ TEST(Shade, RedObjectIsRedAtItsMaskPixels) {
 TEST(Shade, FloorUnderALitBoxIsInItsShadow) {
   // Key light straight above a floating box; the floor below it is in shadow.
   OneBox scene({0, 0, 0.8}, {0.6, 0.6, 0.2}, {0.8f, 0.8f, 0.8f, 1}, {0, -5, 2}, {0, 0, 0}, {0, 0, 4});
+  const MaskPassResult masks = RunMaskPass(scene.layout, 1).value();
   TextureCache textures;
-  const Image8 image = Shade(scene.layout, scene.lights, ShadeOptions{4, 1}, textures).value().image;
+  const Image8 image = Shade(scene.layout, scene.lights, ShadeOptions{4, 1}, textures, &masks).value().image;
   double u = 0, v = 0, lu = 0, lv = 0;
   ASSERT_TRUE(Project(scene.layout.camera, {0, 0, 0}, 0.1, &u, &v));
   ASSERT_TRUE(Project(scene.layout.camera, {1.5, 0, 0}, 0.1, &lu, &lv));
