@@ -256,24 +256,27 @@ SlurmCluster::~SlurmCluster() {
   if (const Status stopped = Stop(); !stopped.ok()) fmt::print(stderr, "slurm cluster: {}\n", stopped.ToString());
 }
 
-Status SlurmCluster::Stop() {
-  if (stopped_) return Status::Ok();
-  stopped_ = true;
+Status SlurmCluster::CancelAll() const {
   auto queue_empty = [&] {
     const auto queue = Run("squeue -h -o %i");
     return queue.exit_status == 0 && queue.output.empty();
   };
+  if (queue_empty()) return Status::Ok();
+  // scancel sends SIGTERM, then SIGKILL after KillWait; do not wait that long here.
+  Run("scancel -p " + partition_);
+  if (WaitFor(queue_empty, std::chrono::seconds(5))) return Status::Ok();
+  Run("scancel -p " + partition_ + " --full --signal=KILL");
+  if (WaitFor(queue_empty, std::chrono::seconds(15))) return Status::Ok();
+  return InternalError("jobs still queued 20 s after scancel: " + Run("squeue").output);
+}
+
+Status SlurmCluster::Stop() {
+  if (stopped_) return Status::Ok();
+  stopped_ = true;
   const bool controller_up = std::any_of(daemons_.begin(), daemons_.end(), [](const auto& d) {
     return d.first == "slurmctld" && Alive(d.second);
   });
-  if (controller_up) {
-    // scancel sends SIGTERM, then SIGKILL after KillWait; do not wait that long here.
-    Run("scancel -p " + partition_);
-    if (!WaitFor(queue_empty, std::chrono::seconds(5))) {
-      Run("scancel -p " + partition_ + " --full --signal=KILL");
-      WaitFor(queue_empty, std::chrono::seconds(15));
-    }
-  }
+  Status status = controller_up ? CancelAll() : Status::Ok();
   for (auto it = daemons_.rbegin(); it != daemons_.rend(); ++it) {
     const pid_t pid = it->second;
     ::kill(pid, SIGTERM);
@@ -283,7 +286,7 @@ Status SlurmCluster::Stop() {
     }
   }
   const std::vector<pid_t> left = ProcessesOf(dir_, dir_ / "slurm.conf");
-  if (left.empty()) return Status::Ok();
+  if (left.empty()) return status;
   std::string names;
   for (const pid_t pid : left) {
     std::string cmdline = ReadText(fmt::format("/proc/{}/cmdline", pid));

@@ -36,6 +36,9 @@ class SlurmCluster {
   SlurmCluster(const SlurmCluster&) = delete;
   SlurmCluster& operator=(const SlurmCluster&) = delete;
 
+  // Cancels every job and waits (at most 20 s) until none is left.
+  Status CancelAll() const;
+
   // Cancels every job, waits for them to end, stops slurmd, slurmctld and munged by the
   // PIDs of their pid files (SIGTERM, then SIGKILL after 10 s). Fails when a daemon, or a
   // process of a job, is still there afterwards. Idempotent.

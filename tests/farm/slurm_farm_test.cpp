@@ -215,6 +215,13 @@ class SlurmFarm : public ::testing::Test {
     for (const fs::path& d : {work_ / "logs", out_ / "shards", out_ / "queries"}) fs::create_directories(d);
   }
 
+  // Whatever a failed test left running, so that the next one starts on an idle node.
+  void TearDown() override {
+    if (!cluster_) return;
+    const Status cancelled = cluster_->CancelAll();
+    EXPECT_TRUE(cancelled.ok()) << cancelled.ToString();
+  }
+
   // The recipe's variables for this test's dataset.
   std::string RecipeEnvironment() const {
     return fmt::format("SOLID={} ASSETS={} ROOMS={} DATASET={} IMAGES=12 SHARD_SIZE=3 RESOLUTION=64x48",
