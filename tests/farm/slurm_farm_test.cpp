@@ -388,6 +388,8 @@ TEST_F(SlurmFarm, AKilledTaskLeavesNoPartialShardAndASecondArrayRendersOnlyThatS
     EXPECT_EQ(task->exit_code, "0:9") << task->state;
   }
 
+  // Killed mid-shard: its partial file is still there, under its temporary name only.
+  EXPECT_TRUE(fs::exists(paths.shards_dir() / *temp)) << *temp;
   EXPECT_FALSE(fs::exists(paths.shard(2)));
   const auto listing = ListShards(out_);
   ASSERT_TRUE(listing.ok()) << listing.status().ToString();
