@@ -110,6 +110,17 @@ pid_t WriterOf(const std::string& temp_name) {
   return static_cast<pid_t>(std::atoll(temp_name.substr(before + 1, last - before - 1).c_str()));
 }
 
+// True once the main thread of `pid` sleeps on a futex. In a `solid render` that has just
+// created a shard's temporary file, that is the shard writer waiting for its first image:
+// past the point where the shard's clock starts, which the rate it judges SIGTERM by counts
+// from, and before any image is written.
+bool WaitsForItsFirstImage(pid_t pid) {
+  const std::string stat = ReadText(fmt::format("/proc/{}/stat", pid));
+  const size_t paren = stat.rfind(')');
+  if (paren == std::string::npos || paren + 2 >= stat.size() || stat[paren + 2] != 'S') return false;
+  return Contains(ReadText(fmt::format("/proc/{}/wchan", pid)), "futex");
+}
+
 // The array task a process belongs to, from the environment Slurm gave it.
 std::string ArrayTaskOf(pid_t pid) {
   std::string environ = ReadText(fmt::format("/proc/{}/environ", pid));
@@ -326,9 +337,9 @@ TEST_F(SlurmFarm, TheArrayThenADependentIndexJobEqualsOneProcess) {
 
 // `scontrol requeue` of a running task is what preemption with PreemptMode=REQUEUE does:
 // SIGCONT and SIGTERM at once, SIGKILL KillWait (30 s) later, the task back in the queue.
-// The task is frozen for 6 s first, just after it began its shard (a stalled node): at the
-// rate it has had, the rest of the shard would take over 10 s, so it abandons the shard,
-// and the requeued run renders it.
+// The task is frozen for 6 s first, as it waits for the first image of its shard (a stalled
+// node): at the rate it has had, the rest of the shard would take over 10 s, so it abandons
+// the shard, and the requeued run renders it.
 TEST_F(SlurmFarm, APreemptedTaskAbandonsItsShardAndItsRequeuedRunRendersIt) {
   const auto start = Clock::now();
   const DatasetPaths paths(out_);
@@ -338,7 +349,15 @@ TEST_F(SlurmFarm, APreemptedTaskAbandonsItsShardAndItsRequeuedRunRendersIt) {
   const std::string task = array.job + "_1";
   const auto temp = watch.WaitForCreated(paths.shard(1).filename().string() + ".tmp-", std::chrono::seconds(120));
   ASSERT_TRUE(temp.has_value()) << AllTaskLogs(array.job);
-  ASSERT_EQ(::kill(WriterOf(*temp), SIGSTOP), 0) << *temp;
+  const pid_t writer = WriterOf(*temp);
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
+  bool waiting = false;
+  while (!(waiting = WaitsForItsFirstImage(writer)) && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  ASSERT_TRUE(waiting) << "the writer of " << *temp << " never waited for an image";
+  ASSERT_EQ(::kill(writer, SIGSTOP), 0) << *temp;
+  ASSERT_FALSE(fs::exists(paths.shard(1)));
   std::this_thread::sleep_for(std::chrono::seconds(6));
   const auto requeue = cluster_->Run("scontrol requeue " + task);
   ASSERT_EQ(requeue.exit_status, 0) << requeue.output;
@@ -366,7 +385,7 @@ TEST_F(SlurmFarm, APreemptedTaskAbandonsItsShardAndItsRequeuedRunRendersIt) {
   const std::string rerun = TaskLog(array.job, 1).substr(first_run.size());
   EXPECT_TRUE(Contains(rerun, "shards             1 requested: 1 rendered")) << rerun;
   ExpectTheReferenceDataset();
-  fmt::print("farm: task 1 frozen 6 s just after it began its shard, then preempted (SIGTERM, requeued): shard "
+  fmt::print("farm: task 1 frozen 6 s as it began its shard, then preempted (SIGTERM, requeued): shard "
              "abandoned, nothing published; the requeued run rendered it; {:.1f} s\n",
              SecondsSince(start));
 }
