@@ -567,7 +567,8 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
     }
   }
 
-  if (stopped) {
+  // A stop that came during the last shard, which was worth finishing: no index is started.
+  if (stopped || CancelRequested(options.cancel)) {
     for (int64_t k = first; k <= last && shard_count > 0; ++k) {
       std::error_code missing_ec;
       if (!fs::exists(paths.shard(k), missing_ec)) report.shards_missing.push_back(k);

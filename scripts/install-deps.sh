@@ -18,6 +18,8 @@ packages=(
   chromium
   # the Python reader (python/) and its tests: Debian's python3 with NumPy, Pillow (PNG decoding) and PyTorch
   python3 python3-numpy python3-pil python3-torch
+  # the farm tests (tests/farm): a single-node Slurm cluster they start and stop themselves
+  slurm-wlm munge
 )
 
 # Optional tools (fuzzing with clang and libFuzzer): installed with --fuzz.

@@ -10,6 +10,12 @@ if [ ! -d tests/gltf_validator/node_modules/gltf-validator ] && command -v npm >
   npm ci --prefix tests/gltf_validator --no-audit --no-fund --silent >/dev/null 2>&1 ||
     echo "test: could not install npm gltf-validator; glTF validation tests will skip"
 fi
+# The Kubernetes API schema for the farm test of the Indexed Job manifest (it skips, saying so,
+# without it).
+if [ ! -d tests/farm/kubernetes/node_modules/kubernetes-models ] && command -v npm >/dev/null; then
+  npm ci --prefix tests/farm/kubernetes --no-audit --no-fund --silent >/dev/null 2>&1 ||
+    echo "test: could not install the npm packages of tests/farm/kubernetes; the manifest test will skip"
+fi
 build=${SOLID_TEST_BUILD_DIR:-build-test}
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DSOLID_WERROR=ON -DSOLID_SANITIZE=ON -DSOLID_BUILD_BENCH=ON >/dev/null

@@ -108,6 +108,29 @@ TEST(RenderCancel, TheShardInFlightIsAbandonedOrFinishedAndARerunCompletesIt) {
   }
 }
 
+// Seen on a Slurm farm (tests/farm): SIGTERM during a task's last shard, with time to finish
+// it, used to go on to the index and exit 0. The shard is finished; the index is not started.
+TEST(RenderCancel, AStopDuringTheLastShardFinishesItAndStartsNoIndex) {
+  TempDir dir;
+  const auto sampler = TinySampler();
+  CancelFlag cancel{false};
+  RenderOptions options = TinyRender(dir.path());
+  options.cancel = &cancel;
+  options.finish_shard_seconds = 1e9;
+  options.progress = [&](int64_t done, int64_t) {
+    if (done == 10) cancel = true;
+  };
+  const auto report = RenderDataset(*sampler, options);
+  ASSERT_OK(report.status());
+  EXPECT_TRUE(report->cancelled);
+  EXPECT_EQ(report->abandoned_shard, -1);
+  EXPECT_EQ(report->shards_rendered, 4);
+  EXPECT_TRUE(report->shards_missing.empty());
+  EXPECT_FALSE(report->index_built);
+  EXPECT_FALSE(fs::exists(DatasetPaths(dir.path()).index()));
+  EXPECT_TRUE(Leftovers(dir.path()).empty());
+}
+
 // A lock held elsewhere: the render does the other shards first, waits, and renders the
 // shard itself once the holder lets go without publishing it (a holder that died).
 TEST(RenderCancel, AShardLockedElsewhereIsRenderedLastOnceItsHolderLetsGo) {
