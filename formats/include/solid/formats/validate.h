@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "solid/formats/dataset.h"
 #include "solid/formats/progress.h"
 
 namespace solid {
@@ -43,7 +44,13 @@ struct ValidateOptions {
 // index.sqlite agrees with the shards.
 ValidationReport ValidateDataset(const std::filesystem::path& root, const ValidateOptions& options = {});
 
-// The same checks for a single target or query shard file, without dataset context.
+// The same checks for a single target or query shard file, without dataset context: its
+// rows against its own provenance (and the shard number its file name gives).
 ValidationReport ValidateShardFile(const std::filesystem::path& path, const ValidateOptions& options = {});
+
+// What ValidateDataset checks of target (or, with `query`, query) shard `shard_index` at
+// `path`: ValidateShardFile's checks, and that its provenance is the manifest's.
+ValidationReport ValidateShardOfDataset(const std::filesystem::path& path, const Manifest& manifest, bool query,
+                                        int64_t shard_index, const ValidateOptions& options = {});
 
 }  // namespace solid
