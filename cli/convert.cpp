@@ -24,7 +24,7 @@ struct ConvertFlags {
 
 void AddCommonFlags(CLI::App* cmd, ConvertFlags* f) {
   AddJobsOption(cmd, &f->jobs, "Parallel conversions");
-  cmd->add_option("--limit", f->limit, "Convert at most N assets (after filters)");
+  cmd->add_option("--limit", f->limit, "Convert at most N assets (after filters)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--position-bits", f->draco.position_bits, "Draco position quantization bits")
       ->capture_default_str()->check(CLI::Range(8, 30));
   cmd->add_option("--normal-bits", f->draco.normal_bits, "Draco normal quantization bits")

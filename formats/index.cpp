@@ -282,7 +282,10 @@ Result<std::vector<std::string>> CompareIndex(const fs::path& root) {
       SOLID_ASSIGN_OR_RETURN(bool want_row, want.Step());
       SOLID_ASSIGN_OR_RETURN(bool have_row, have.Step());
       if (!want_row && !have_row) break;
-      std::string where = fmt::format("{}: {} row {}", paths.index().string(), table, row);
+      // Key/value tables name the row by its key.
+      const bool keyed = want_row && (want.ColumnName(0) == "key" || want.ColumnName(0) == "name");
+      std::string where = keyed ? fmt::format("{}: {} '{}'", paths.index().string(), table, want.Text(0))
+                                : fmt::format("{}: {} row {}", paths.index().string(), table, row);
       // Name the shard file itself, which is what a user has to look at.
       for (int c = 0; want_row && c < want.ColumnCount(); ++c) {
         if (want.ColumnName(c) == "file") where = fmt::format("{} ({})", where, want.Text(c));
