@@ -104,6 +104,13 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
     expected = file.index + 1;
   }
   if (expected < manifest.ShardCount()) report.missing_shards.emplace_back(expected, manifest.ShardCount() - 1);
+  for (const fs::path& p : listing.unexpected) {
+    const std::string name = p.filename().string();
+    if (ParseTargetShardFileName(name).ok() || ParseQueryShardFileName(name).ok()) {
+      report.skipped.push_back(CorruptError(p.string() + ": named as a shard, but not a regular file inside the "
+                                                         "dataset (solid render --repair replaces it)"));
+    }
+  }
   SOLID_RETURN_IF_ERROR(db.Exec("BEGIN"));
   SOLID_RETURN_IF_ERROR(InsertMeta(db, "format_version", std::to_string(manifest.format_version)));
   SOLID_RETURN_IF_ERROR(InsertMeta(db, "params_hash", Hex64(manifest.ParamsHash())));

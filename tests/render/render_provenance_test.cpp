@@ -171,6 +171,10 @@ TEST_F(Provenance, F4_ADirectoryInPlaceOfAShardIsRefusedAndReplaced) {
       << refused.status().message();
   EXPECT_NE(ValidateDataset(ours_).ToJson().dump().find("named as a shard, but not a regular file"),
             std::string::npos);
+  const Result<IndexReport> index = BuildIndex(ours_);
+  ASSERT_OK(index.status());
+  ASSERT_EQ(index->skipped.size(), 1u);
+  EXPECT_TRUE(Says(index->skipped[0], "shard-000001.sqlite: named as a shard, but not a regular file"));
 
   RenderOptions repair = Tiny(ours_, 3, true);
   repair.repair = true;

@@ -36,7 +36,9 @@ struct ValidateOptions {
 };
 
 // Checks: the manifest against its schema; every shard's schema version, SQLite
-// integrity, blob checksums and value ranges; that image ids belong to their shard;
+// integrity, blob and row checksums (every stored value), content checksum (every row)
+// and value ranges; that each shard's provenance is the manifest's and names its file's
+// shard; that image ids belong to their shard;
 // that every RLE decodes with runs summing to h*w; that stored boxes, areas,
 // occlusion and scale class equal those of the masks; that the full mask contains the
 // visible one; that images decode to their stored size; query view counts; that
