@@ -85,6 +85,7 @@ solid, dataset, shard, pristine, n = sys.argv[1], sys.argv[2], sys.argv[3], sys.
 def dump(path):
     try:
         db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        db.text_factory = bytes  # a flip may leave text that is no UTF-8
         out = [db.execute("PRAGMA application_id").fetchone(), db.execute("PRAGMA user_version").fetchone()]
         for t in ("sqlite_schema", "shard_meta", "images", "instances"):
             out += list(db.execute(f"SELECT * FROM {t}"))
