@@ -91,7 +91,7 @@ def dump(path):
             out += list(db.execute(f"SELECT * FROM {t}"))
         db.close()
         return out
-    except sqlite3.DatabaseError:
+    except (sqlite3.DatabaseError, UnicodeDecodeError):  # column names from a damaged schema too
         return None
 def fails(*args):
     return subprocess.run([solid, "validate", *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode != 0
