@@ -44,6 +44,16 @@ void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags);
 // is given or the resolution is malformed.
 Result<render::LayoutParams> ResolveParams(const ParamsFlags& flags);
 
+// A range check whose bounds are those of the integer at `pointer` of an embedded JSON Schema
+// (schemas::IntegerRange): a flag and the file it ends up in share one source.
+CLI::Validator SchemaRange(std::string_view schema, std::string_view pointer);
+
+// --seed S: a 64-bit unsigned integer; a sign is refused (CLI11 would wrap "-1").
+CLI::Option* AddSeedOption(CLI::App* cmd, uint64_t* seed, const std::string& help);
+// --jobs N, -j N: 1..kMaxJobs threads; not given, *jobs keeps 0 (all cores).
+inline constexpr int kMaxJobs = 1024;
+CLI::Option* AddJobsOption(CLI::App* cmd, int* jobs, const std::string& help);
+
 // --asset-cache-mb N: the memory cap of the decoded-asset cache, MiB (default 2048).
 void AddAssetCacheFlag(CLI::App* cmd, uint64_t* megabytes);
 render::AssetLibraryOptions AssetLibraryOptionsFor(uint64_t megabytes);

@@ -6,17 +6,47 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "signals.h"
+#include "solid/formats/schemas.h"
 
 namespace solid::cli {
 
 Result<std::pair<int, int>> ParseResolution(std::string_view flag, const std::string& text) {
+  SOLID_ASSIGN_OR_RETURN(const auto side,
+                         schemas::IntegerRange("params.schema.json", "/properties/render/properties/resolution/items"));
   int w = 0, h = 0;
   char x = 0, rest = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < 16 || h < 16 || w > 8192 ||
-      h > 8192) {
-    return InvalidArgumentError(fmt::format("{} {}: expected WIDTHxHEIGHT, each 16..8192", flag, text));
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < side.first ||
+      h < side.first || w > side.second || h > side.second) {
+    return InvalidArgumentError(
+        fmt::format("{} {}: expected WIDTHxHEIGHT, each {}..{}", flag, text, side.first, side.second));
   }
   return std::pair{w, h};
+}
+
+CLI::Validator SchemaRange(std::string_view schema, std::string_view pointer) {
+  const Result<std::pair<int64_t, int64_t>> range = schemas::IntegerRange(schema, pointer);
+  if (!range.ok()) {
+    const std::string why = range.status().message();
+    return CLI::Validator([why](std::string&) { return why; }, "");
+  }
+  return CLI::Range(range->first, range->second);
+}
+
+CLI::Option* AddSeedOption(CLI::App* cmd, uint64_t* seed, const std::string& help) {
+  // CLI11 2.1 reads "-1" into an unsigned as 2^64 - 1: refuse a sign before it converts.
+  const CLI::Validator unsigned_integer(
+      [](std::string& text) -> std::string {
+        if (text.empty() || text.find_first_of("-+") != std::string::npos) {
+          return "a seed is a non-negative integer below 2^64, not " + text;
+        }
+        return "";
+      },
+      "UINT64");
+  return cmd->add_option("--seed", *seed, help)->capture_default_str()->check(unsigned_integer);
+}
+
+CLI::Option* AddJobsOption(CLI::App* cmd, int* jobs, const std::string& help) {
+  return cmd->add_option("--jobs,-j", *jobs, help + " (default: all cores)")->check(CLI::Range(1, kMaxJobs));
 }
 
 void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags) {

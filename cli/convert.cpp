@@ -23,8 +23,8 @@ struct ConvertFlags {
 };
 
 void AddCommonFlags(CLI::App* cmd, ConvertFlags* f) {
-  cmd->add_option("--jobs,-j", f->jobs, "Parallel conversions (default: all cores)");
-  cmd->add_option("--limit", f->limit, "Convert at most N assets (after filters)");
+  AddJobsOption(cmd, &f->jobs, "Parallel conversions");
+  cmd->add_option("--limit", f->limit, "Convert at most N assets (after filters)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--position-bits", f->draco.position_bits, "Draco position quantization bits")
       ->capture_default_str()->check(CLI::Range(8, 30));
   cmd->add_option("--normal-bits", f->draco.normal_bits, "Draco normal quantization bits")
@@ -120,7 +120,7 @@ Command AddConvert(CLI::App& app) {
   procedural->add_option("OUT", f->out, "Assets directory")->required();
   procedural->add_option("--models", f->procedural.models, "Number of shapes")->capture_default_str();
   procedural->add_option("--rooms", f->procedural.rooms, "Number of rooms")->capture_default_str();
-  procedural->add_option("--seed", f->procedural.seed, "Seed")->capture_default_str();
+  AddSeedOption(procedural, &f->procedural.seed, "Seed");
   procedural->add_option("--min-triangles", f->procedural.shapes.min_triangles,
                          "Fewest triangles of a shape (counts are drawn log-uniformly in the range)")
       ->capture_default_str();

@@ -7,6 +7,7 @@
 #include "progress.h"
 #include "solid/formats/index.h"
 #include "solid/formats/inspect.h"
+#include "solid/formats/dataset.h"
 #include "solid/formats/validate.h"
 
 namespace solid::cli {
@@ -41,8 +42,13 @@ Command AddValidate(CLI::App& app) {
   cmd->add_option("PATH", flags->path, "Dataset directory or shard file")->required();
   cmd->add_flag("--json", flags->json, "Print the report as JSON");
   cmd->add_flag("--no-decode", flags->no_decode, "Skip decoding images (checksums are still verified)");
-  cmd->add_option("--max-problems", flags->max_problems, "List at most this many problems (default 1000)");
+  cmd->add_option("--max-problems", flags->max_problems, "List at most this many problems (default 1000)")
+      ->check(CLI::Range(size_t{1}, size_t{1} << 20));
   return [flags] {
+    std::error_code exists_ec;
+    if (!std::filesystem::exists(flags->path, exists_ec)) {
+      return Fail(NotFoundError(flags->path + ": no such dataset directory or shard file"));
+    }
     ValidateOptions options;
     options.decode_images = !flags->no_decode;
     options.max_problems = flags->max_problems;
@@ -70,11 +76,24 @@ Command AddValidate(CLI::App& app) {
 }
 
 Command AddIndex(CLI::App& app) {
-  auto path = std::make_shared<std::string>();
+  struct Flags {
+    std::string path;
+    bool adopt = false;
+  };
+  auto flags = std::make_shared<Flags>();
   CLI::App* cmd = app.add_subcommand("index", "Build DATASET/index.sqlite from the complete shards present "
                                               "(shard list, model occurrences, metrics).");
-  cmd->add_option("DATASET", *path, "Dataset directory")->required();
-  return [path] {
+  cmd->add_option("DATASET", flags->path, "Dataset directory")->required();
+  cmd->add_flag("--adopt", flags->adopt,
+                "When DATASET has no manifest.json: rebuild it from the shards' provenance, if they all agree");
+  return [flags] {
+    const std::string* path = &flags->path;
+    std::error_code exists_ec;
+    if (flags->adopt && !std::filesystem::exists(DatasetPaths(*path).manifest(), exists_ec)) {
+      Result<AdoptReport> adopted = AdoptManifest(*path);
+      if (!adopted.ok()) return Fail(adopted.status());
+      fmt::print(stderr, "solid: {}\n", adopted->Summary(*path));
+    }
     Result<IndexReport> report = [&] {
       ProgressLine progress("index", "shards");
       return BuildIndex(*path, progress.Callback());

@@ -19,7 +19,7 @@ struct RenderFlags {
   uint64_t seed = 1;
   int jobs = 0, quality = 90, samples_per_pixel = 4, query_size = 224;
   uint64_t asset_cache_mb = 2048;
-  bool depth = false, no_queries = false, repair = false, json = false;
+  bool depth = false, no_queries = false, repair = false, adopt = false, json = false;
 };
 
 // --shard K, --shards A-B, or the index a scheduler gives each task of an array job.
@@ -101,6 +101,7 @@ int Run(const RenderFlags& f) {
   options.query_views.samples_per_pixel = f.samples_per_pixel;
   options.queries = !f.no_queries;
   options.repair = f.repair;
+  options.adopt = f.adopt;
   // Decoded textures are a second cache of the same size (the glb bytes count in the first).
   options.texture_cache_bytes = f.asset_cache_mb << 20;
   if (shards && !f.json) {
@@ -148,10 +149,12 @@ Command AddRender(CLI::App& app) {
   cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
   AddAssetCacheFlag(cmd, &f->asset_cache_mb);
   cmd->add_option("--out,-o", f->out, "Dataset directory (created, or resumed when its manifest agrees)")->required();
-  cmd->add_option("--images,-n", f->images, "Images in the dataset")->capture_default_str()->check(CLI::Range(
-      int64_t{1}, int64_t{1} << 40));
-  cmd->add_option("--shard-size", f->shard_size, "Images per shard")->capture_default_str()->check(
-      CLI::Range(int64_t{1}, int64_t{1} << 20));
+  cmd->add_option("--images,-n", f->images, "Images in the dataset")
+      ->capture_default_str()
+      ->check(SchemaRange("manifest.schema.json", "/properties/images"));
+  cmd->add_option("--shard-size", f->shard_size, "Images per shard")
+      ->capture_default_str()
+      ->check(SchemaRange("manifest.schema.json", "/properties/shard_size"));
   auto* shard = cmd->add_option("--shard", f->shard,
                                 "Render this shard only (default: $SLURM_ARRAY_TASK_ID or $JOB_COMPLETION_INDEX when "
                                 "set, else every shard)")
@@ -159,9 +162,8 @@ Command AddRender(CLI::App& app) {
   auto* range = cmd->add_option("--shards", f->shards, "Render shards FIRST-LAST only");
   shard->excludes(range);
   range->excludes(shard);
-  cmd->add_option("--seed", f->seed, "Dataset seed: image i depends only on (params, assets, seed, i)")
-      ->capture_default_str();
-  cmd->add_option("--jobs,-j", f->jobs, "Images in parallel (default: all cores)");
+  AddSeedOption(cmd, &f->seed, "Dataset seed: image i depends only on (params, assets, seed, i)");
+  AddJobsOption(cmd, &f->jobs, "Images in parallel");
   cmd->add_option("--format", f->format, "Image format: png, jpeg or webp")->capture_default_str();
   cmd->add_option("--quality", f->quality, "JPEG/WebP quality")->capture_default_str()->check(CLI::Range(1, 100));
   cmd->add_flag("--depth", f->depth, "Store depth as OpenEXR (half float, ZIP)");
@@ -176,7 +178,11 @@ Command AddRender(CLI::App& app) {
       CLI::Range(16, 4096));
   cmd->add_flag("--no-queries", f->no_queries, "Do not render query views");
   cmd->add_flag("--repair", f->repair,
-                "Validate present shards and re-render those that are damaged (others are trusted and kept)");
+                "Validate present shards and re-render those that fail (damaged, another dataset's or another "
+                "shard's, not a regular file); the others keep their bytes");
+  cmd->add_flag("--adopt", f->adopt,
+                "When DATASET has shards but no manifest.json: rebuild it from the shards' provenance, if they all "
+                "agree, and go on (without it such a directory is refused)");
   cmd->add_flag("--json", f->json, "Print the report as JSON");
   return [f]() -> int { return Run(*f); };
 }

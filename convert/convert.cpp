@@ -483,9 +483,11 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
     if (options.progress) options.progress(static_cast<int64_t>(done + 1), static_cast<int64_t>(jobs.size()));
   }
   for (std::thread& t : pool) t.join();
+  // Closed on every path: its checkpoint is what removes the -wal and -shm files.
+  const Status closed = catalog.Close();
   SOLID_RETURN_IF_ERROR(output_status);
   SOLID_RETURN_IF_ERROR(catalog_status);
-  SOLID_RETURN_IF_ERROR(catalog.Close());
+  SOLID_RETURN_IF_ERROR(closed);
   report.not_started = static_cast<int64_t>(jobs.size() - done);
   report.cancelled = report.not_started > 0;
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -181,7 +181,12 @@ Status Catalog::Put(const CatalogEntry& e) {
     s.BindNull(25);
   }
   s.Bind(26, std::string_view(counts)).Bind(27, std::string_view(extras));
-  return s.Run().WithContext(fmt::format("catalog row '{}'", e.key));
+  SOLID_RETURN_IF_ERROR(s.Run().WithContext(fmt::format("catalog row '{}'", e.key)));
+  // Backfilled at once (PASSIVE: a reader never blocks it), so that the WAL holds nothing
+  // the file lacks: when the disk fills later, closing deletes the WAL and -shm without a
+  // write instead of leaving them beside the catalog.
+  return impl_->db.Exec("PRAGMA wal_checkpoint(PASSIVE)")
+      .WithContext(fmt::format("catalog row '{}': checkpoint", e.key));
 }
 
 Result<std::optional<CatalogEntry>> Catalog::Find(std::string_view key) {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <map>
 #include <mutex>
 
@@ -77,6 +78,12 @@ Result<Manifest> Manifest::Parse(std::string_view text, std::string_view name) {
   limits.max_bytes = kMaxManifestBytes;
   limits.max_string_length = json::kMaxConfigStringBytes;
   SOLID_ASSIGN_OR_RETURN(nlohmann::json doc, json::ParseJson(text, name, limits));
+  // Before the schema, which would only say that the number is out of range.
+  if (doc.is_object() && doc.contains("format_version") && doc["format_version"].is_number_integer() &&
+      doc["format_version"].get<int64_t>() != kDatasetFormatVersion) {
+    return UnsupportedVersionError(fmt::format("{}: /format_version: {}, this build reads format version {}", name,
+                                               doc["format_version"].get<int64_t>(), kDatasetFormatVersion));
+  }
   SOLID_ASSIGN_OR_RETURN(const json::Schema* schema, ManifestSchema());
   SOLID_RETURN_IF_ERROR(schema->Check(doc, name, text));
   // The schema guarantees presence and types from here on.
@@ -114,10 +121,18 @@ double ScaleClassAreaScaleOfShard(const std::filesystem::path& shard) {
   return manifest.ok() ? manifest->ScaleClassAreaScale() : 1.0;
 }
 
-std::string ManifestDifference(const Manifest& a, const Manifest& b) {
+std::string ManifestDifference(const Manifest& a, const Manifest& b) { return ManifestDifference(a, b, "", ""); }
+
+std::string ManifestDifference(const Manifest& a, const Manifest& b, std::string_view a_label,
+                               std::string_view b_label) {
   std::vector<std::string> diffs;
   auto cmp = [&](std::string_view what, const auto& x, const auto& y) {
-    if (x != y) diffs.push_back(fmt::format("{} {} vs {}", what, x, y));
+    if (x == y) return;
+    if (a_label.empty()) {
+      diffs.push_back(fmt::format("{} {} vs {}", what, x, y));
+    } else {
+      diffs.push_back(fmt::format("{} {} {}, {} {}", what, x, a_label, y, b_label));
+    }
   };
   cmp("format_version", a.format_version, b.format_version);
   cmp("generator", a.generator_name + " " + a.generator_version, b.generator_name + " " + b.generator_version);
@@ -130,6 +145,10 @@ std::string ManifestDifference(const Manifest& a, const Manifest& b) {
       fmt::format("{}x{}", b.ScaleClassResolution().first, b.ScaleClassResolution().second));
   cmp("image_format", ImageFormatName(a.image_format), ImageFormatName(b.image_format));
   cmp("params_hash", Hex64(a.ParamsHash()), Hex64(b.ParamsHash()));
+  if (a.params != b.params && !diffs.empty() && diffs.back().starts_with("params_hash")) {
+    const nlohmann::json patch = nlohmann::json::diff(a.params, b.params);
+    if (!patch.empty()) diffs.back() += fmt::format(" (params differ first at {})", patch[0].value("path", "/"));
+  }
   cmp("catalog_hash", Hex64(a.catalog_hash), Hex64(b.catalog_hash));
   std::string out;
   for (const auto& d : diffs) out += (out.empty() ? "" : "; ") + d;
@@ -151,6 +170,59 @@ Result<Manifest> ReadManifest(const fs::path& root) {
   fs::path path = DatasetPaths(root).manifest();
   SOLID_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, files::ReadFile(path, kMaxManifestBytes));
   return Manifest::Parse({reinterpret_cast<const char*>(bytes.data()), bytes.size()}, path.string());
+}
+
+namespace {
+constexpr std::string_view kManifestKey = "manifest";
+constexpr std::string_view kShardIndexKey = "shard_index";
+
+template <typename Writer>
+Status WriteProvenanceTo(Writer& writer, const Manifest& manifest, int64_t shard_index) {
+  SOLID_RETURN_IF_ERROR(writer.SetMeta(kShardIndexKey, std::to_string(shard_index)));
+  return writer.SetMeta(kManifestKey, manifest.ToJson().dump());
+}
+}  // namespace
+
+Status WriteProvenance(ShardWriter& writer, const Manifest& manifest, int64_t shard_index) {
+  return WriteProvenanceTo(writer, manifest, shard_index);
+}
+Status WriteProvenance(QueryShardWriter& writer, const Manifest& manifest, int64_t shard_index) {
+  return WriteProvenanceTo(writer, manifest, shard_index);
+}
+
+Result<ShardProvenance> ReadProvenance(const std::vector<std::pair<std::string, std::string>>& meta,
+                                       std::string_view file) {
+  const std::string* manifest = nullptr;
+  const std::string* index = nullptr;
+  for (const auto& [key, value] : meta) {
+    if (key == kManifestKey) manifest = &value;
+    if (key == kShardIndexKey) index = &value;
+  }
+  if (!manifest || !index) {
+    return CorruptError(fmt::format("{}: provenance: shard_meta has no '{}': it does not say what it was made from",
+                                    file, manifest ? kShardIndexKey : kManifestKey));
+  }
+  ShardProvenance p;
+  auto [end, ec] = std::from_chars(index->data(), index->data() + index->size(), p.shard_index);
+  if (ec != std::errc() || end != index->data() + index->size() || p.shard_index < 0) {
+    return CorruptError(fmt::format("{}: provenance: shard_index '{}' is not a shard number", file,
+                                    index->substr(0, 40)));
+  }
+  Result<Manifest> parsed = Manifest::Parse(*manifest, fmt::format("{}: provenance", file));
+  if (!parsed.ok()) return CorruptError(parsed.status().message());
+  p.manifest = std::move(parsed).value();
+  return p;
+}
+
+Status CheckProvenance(const ShardProvenance& found, const Manifest& manifest, int64_t shard_index,
+                       std::string_view file) {
+  if (found.shard_index != shard_index) {
+    return CorruptError(fmt::format("{}: provenance: shard_index {} in the shard, {} by its file name", file,
+                                    found.shard_index, shard_index));
+  }
+  const std::string why = ManifestDifference(found.manifest, manifest, "in the shard", "in the manifest");
+  if (!why.empty()) return CorruptError(fmt::format("{}: provenance: {}", file, why));
+  return Status::Ok();
 }
 
 Result<ShardListing> ListShards(const fs::path& root) {
@@ -181,6 +253,73 @@ Result<ShardListing> ListShards(const fs::path& root) {
   SOLID_RETURN_IF_ERROR(scan(paths.queries_dir(), ParseQueryShardFileName, &listing.queries));
   std::sort(listing.unexpected.begin(), listing.unexpected.end());
   return listing;
+}
+
+std::string AdoptReport::Summary(const fs::path& root) const {
+  const Manifest& m = manifest;
+  std::string line = fmt::format(
+      "{}: no manifest.json; adopted the provenance of {} shard(s) and {} query shard(s), which agree: seed 0x{}, "
+      "{} images in shards of {}, {}x{} {}, params_hash {}, catalog_hash {}, {} {}; manifest.json rebuilt",
+      root.string(), target_shards, query_shards, Hex64(m.seed), m.images, m.shard_size, m.width, m.height,
+      ImageFormatName(m.image_format), Hex64(m.ParamsHash()), Hex64(m.catalog_hash), m.generator_name,
+      m.generator_version);
+  for (const Status& s : unreadable) line += "\n  not adopted (solid render --repair re-renders it): " + s.message();
+  return line;
+}
+
+Result<AdoptReport> AdoptManifest(const fs::path& root) {
+  DatasetPaths paths(root);
+  std::error_code ec;
+  if (fs::exists(paths.manifest(), ec)) {
+    return AlreadyExistsError(paths.manifest().string() + ": exists; there is nothing to adopt");
+  }
+  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(root));
+  AdoptReport report;
+  std::optional<std::string> first;  // the file whose manifest the others must equal
+  auto adopt = [&](const ShardFile& file, Result<std::vector<std::pair<std::string, std::string>>> meta) -> Status {
+    Result<ShardProvenance> found =
+        meta.ok() ? ReadProvenance(*meta, file.path.string()) : Result<ShardProvenance>(meta.status());
+    if (found.ok() && found->shard_index != file.index) {
+      found = CorruptError(fmt::format("{}: provenance: shard_index {} in the shard, {} by its file name",
+                                       file.path.string(), found->shard_index, file.index));
+    }
+    if (!found.ok()) {
+      report.unreadable.push_back(found.status());
+      return Status::Ok();
+    }
+    if (!first) {
+      first = file.path.string();
+      report.manifest = found->manifest;
+      return Status::Ok();
+    }
+    const std::string why = ManifestDifference(found->manifest, report.manifest, "in " + file.path.string(),
+                                               "in " + *first);
+    if (!why.empty()) {
+      return CorruptError(fmt::format("{}: the shards disagree on what they were made from ({}); adopt only "
+                                      "shards of one dataset: move the others away",
+                                      root.string(), why));
+    }
+    return Status::Ok();
+  };
+  for (const ShardFile& file : listing.targets) {
+    Result<ShardReader> reader = ShardReader::Open(file.path);
+    SOLID_RETURN_IF_ERROR(adopt(file, reader.ok() ? reader->Meta() : Result<std::vector<std::pair<std::string, std::string>>>(reader.status())));
+  }
+  const size_t targets_unreadable = report.unreadable.size();
+  for (const ShardFile& file : listing.queries) {
+    Result<QueryShardReader> reader = QueryShardReader::Open(file.path);
+    SOLID_RETURN_IF_ERROR(adopt(file, reader.ok() ? reader->Meta() : Result<std::vector<std::pair<std::string, std::string>>>(reader.status())));
+  }
+  if (!first) {
+    return NotFoundError(fmt::format("{}: no manifest.json and no shard that says what it was made from: nothing "
+                                     "to adopt",
+                                     root.string()));
+  }
+  report.target_shards = static_cast<int64_t>(listing.targets.size() - targets_unreadable);
+  report.query_shards =
+      static_cast<int64_t>(listing.queries.size() - (report.unreadable.size() - targets_unreadable));
+  SOLID_RETURN_IF_ERROR(CreateDataset(root, report.manifest));
+  return report;
 }
 
 // ---------------------------------------------------------------------------------------------

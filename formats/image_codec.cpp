@@ -1,5 +1,8 @@
 #include "solid/formats/image_codec.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
@@ -216,7 +219,77 @@ Result<std::vector<uint8_t>> EncodeImage(const Image8& image, ImageFormat format
   return Encode(FileNameFor(format), spec, image.pixels.data());
 }
 
-Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+namespace {
+
+// libpng's default error handler, which OpenImageIO 2.4's PNG reader keeps, prints to
+// stderr ("libpng error: IHDR: Read error: hit end of file") and names no file. Around a
+// decode of untrusted bytes, stderr is a memory file: what the libraries printed goes into
+// the error, whose caller names the image (or back to stderr when the decode succeeds).
+// One at a time: stderr is the process's.
+class LibraryMessages {
+ public:
+  LibraryMessages() : lock_(Mutex()) {
+    std::fflush(stderr);
+    capture_ = ::memfd_create("solid-library-messages", MFD_CLOEXEC);
+    if (capture_ >= 0) saved_ = ::dup(STDERR_FILENO);
+    if (saved_ >= 0) ::dup2(capture_, STDERR_FILENO);
+  }
+  ~LibraryMessages() { Restore(); }
+  LibraryMessages(const LibraryMessages&) = delete;
+  LibraryMessages& operator=(const LibraryMessages&) = delete;
+
+  template <typename T>
+  Result<T> Attach(Result<T> result) {
+    std::string printed = Restore();
+    while (!printed.empty() && (printed.back() == '\n' || printed.back() == ' ')) printed.pop_back();
+    if (printed.empty()) return result;
+    if (result.ok()) {
+      printed += '\n';
+      (void)!::write(STDERR_FILENO, printed.data(), printed.size());
+      return result;
+    }
+    for (char& c : printed) {
+      if (c == '\n') c = ';';
+    }
+    const Status& s = result.status();
+    return Status(s.code(), fmt::format("{} (the decoder printed: {})", s.message(), printed));
+  }
+
+ private:
+  static std::mutex& Mutex() {
+    static std::mutex mutex;
+    return mutex;
+  }
+
+  // Puts stderr back; what was written meanwhile.
+  std::string Restore() {
+    std::string printed;
+    if (saved_ < 0) {
+      if (capture_ >= 0) ::close(capture_);
+      capture_ = -1;
+      return printed;
+    }
+    std::fflush(stderr);
+    ::dup2(saved_, STDERR_FILENO);
+    ::close(saved_);
+    saved_ = -1;
+    char buffer[4096];
+    for (off_t at = 0;;) {
+      const ssize_t n = ::pread(capture_, buffer, sizeof buffer, at);
+      if (n <= 0 || printed.size() > (64 << 10)) break;
+      printed.append(buffer, static_cast<size_t>(n));
+      at += n;
+    }
+    ::close(capture_);
+    capture_ = -1;
+    return printed;
+  }
+
+  std::lock_guard<std::mutex> lock_;
+  int capture_ = -1, saved_ = -1;
+};
+
+Result<ImageHeader> ReadImageHeaderOf(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
   SOLID_RETURN_IF_ERROR(CheckExrHeader(bytes, limits));
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   SOLID_ASSIGN_OR_RETURN(auto reader, OpenChecked(FileNameFor(format), &proxy, limits));
@@ -225,7 +298,7 @@ Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat 
                      static_cast<uint32_t>(spec.nchannels)};
 }
 
-Result<Image8> DecodeImage(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+Result<Image8> DecodeImageOf(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
   SOLID_RETURN_IF_ERROR(CheckExrHeader(bytes, limits));
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   std::string name = FileNameFor(format);
@@ -241,6 +314,8 @@ Result<Image8> DecodeImage(std::span<const uint8_t> bytes, ImageFormat format, c
   }
   return image;
 }
+
+}  // namespace
 
 Result<std::vector<uint8_t>> EncodeDepthExr(const DepthImage& depth) {
   UseCallerThreadsOnly();
@@ -261,6 +336,16 @@ Result<std::vector<uint8_t>> EncodeDepthExr(const DepthImage& depth) {
     return InternalError(fmt::format("encoding depth EXR: {}", writer->geterror()));
   }
   return std::vector<uint8_t>(out.begin(), out.end());
+}
+
+Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+  LibraryMessages messages;
+  return messages.Attach(ReadImageHeaderOf(bytes, format, limits));
+}
+
+Result<Image8> DecodeImage(std::span<const uint8_t> bytes, ImageFormat format, const ImageLimits& limits) {
+  LibraryMessages messages;
+  return messages.Attach(DecodeImageOf(bytes, format, limits));
 }
 
 Result<DepthImage> DecodeDepthExr(std::span<const uint8_t> bytes, const ImageLimits& limits) {

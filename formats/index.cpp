@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -36,13 +37,32 @@ struct ShardContribution {
   std::vector<std::pair<uint64_t, uint64_t>> visible_areas;         // (visible, full) per visible instance
 };
 
-Result<ShardContribution> ReadContribution(const fs::path& path) {
+// A shard is indexed only when it belongs here and its checksums hold: the index's
+// whole-file checksum must never bless a shard that is damaged or another dataset's.
+template <typename Reader>
+Status CheckBelongs(Reader& reader, const fs::path& path, const Manifest& manifest, int64_t shard_index) {
+  SOLID_RETURN_IF_ERROR(reader.VerifyContent(ChecksumPolicy::kVerify));
+  SOLID_ASSIGN_OR_RETURN(auto meta, reader.Meta());
+  SOLID_ASSIGN_OR_RETURN(ShardProvenance found, ReadProvenance(meta, path.string()));
+  return CheckProvenance(found, manifest, shard_index, path.string());
+}
+
+Result<ShardContribution> ReadContribution(const fs::path& path, const Manifest& manifest, int64_t shard_index) {
   ShardContribution c;
   SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
+  SOLID_RETURN_IF_ERROR(CheckBelongs(reader, path, manifest, shard_index));
   SOLID_ASSIGN_OR_RETURN(c.counts, reader.Counts());
   SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, reader.ImageIds());
+  const int64_t first = shard_index * manifest.shard_size;
+  const int64_t end = std::min(first + manifest.shard_size, manifest.images);
   std::map<int64_t, std::pair<int64_t, int64_t>> per_image;
-  for (int64_t id : ids) per_image[id] = {0, 0};
+  for (int64_t id : ids) {
+    if (id < first || id >= end) {
+      return CorruptError(fmt::format("{}: images row {}: image_id: outside shard {}'s range [{}, {})", path.string(),
+                                      id, shard_index, first, end));
+    }
+    per_image[id] = {0, 0};
+  }
   SOLID_RETURN_IF_ERROR(reader.ForEachInstance(
       [&](const InstanceRecord& in) -> Status {
         auto it = per_image.find(in.image_id);
@@ -84,6 +104,13 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
     expected = file.index + 1;
   }
   if (expected < manifest.ShardCount()) report.missing_shards.emplace_back(expected, manifest.ShardCount() - 1);
+  for (const fs::path& p : listing.unexpected) {
+    const std::string name = p.filename().string();
+    if (ParseTargetShardFileName(name).ok() || ParseQueryShardFileName(name).ok()) {
+      report.skipped.push_back(CorruptError(p.string() + ": named as a shard, but not a regular file inside the "
+                                                         "dataset (solid render --repair replaces it)"));
+    }
+  }
   SOLID_RETURN_IF_ERROR(db.Exec("BEGIN"));
   SOLID_RETURN_IF_ERROR(InsertMeta(db, "format_version", std::to_string(manifest.format_version)));
   SOLID_RETURN_IF_ERROR(InsertMeta(db, "params_hash", Hex64(manifest.ParamsHash())));
@@ -98,7 +125,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
   int64_t total = static_cast<int64_t>(listing.targets.size() + listing.queries.size()), done = 0;
   for (const ShardFile& file : listing.targets) {
     if (progress) progress(done++, total);
-    Result<ShardContribution> c = ReadContribution(file.path);
+    Result<ShardContribution> c = ReadContribution(file.path, manifest, file.index);
     if (!c.ok()) {
       report.skipped.push_back(c.status());
       continue;
@@ -131,6 +158,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
     if (progress) progress(done++, total);
     auto read = [&]() -> Result<std::pair<std::vector<QueryModelRecord>, files::FileDigest>> {
       SOLID_ASSIGN_OR_RETURN(QueryShardReader reader, QueryShardReader::Open(file.path));
+      SOLID_RETURN_IF_ERROR(CheckBelongs(reader, file.path, manifest, file.index));
       SOLID_ASSIGN_OR_RETURN(std::vector<QueryModelRecord> shard_models, reader.Models());
       SOLID_ASSIGN_OR_RETURN(files::FileDigest digest, files::DigestFile(file.path));
       return std::make_pair(std::move(shard_models), digest);
@@ -217,6 +245,13 @@ bool SameValue(const Stmt& a, const Stmt& b, int col) {
 
 Result<IndexReport> BuildIndex(const fs::path& root, const ProgressCallback& progress) {
   DatasetPaths paths(root);
+  std::error_code exists_ec;
+  if (!fs::is_directory(root, exists_ec)) return NotFoundError(root.string() + ": no dataset directory");
+  if (!fs::exists(paths.manifest(), exists_ec)) {
+    return NotFoundError(fmt::format("{}: no manifest.json: solid index --adopt rebuilds it from the shards, when "
+                                     "they agree on what they were made from",
+                                     root.string()));
+  }
   fs::path temp = files::TempPathFor(paths.index());
   files::RemoveStaleTemps(paths.index());
   std::error_code ec;
@@ -254,20 +289,25 @@ Result<std::vector<std::string>> CompareIndex(const fs::path& root) {
       SOLID_ASSIGN_OR_RETURN(bool want_row, want.Step());
       SOLID_ASSIGN_OR_RETURN(bool have_row, have.Step());
       if (!want_row && !have_row) break;
-      std::string where = fmt::format("{}: {} row {}", paths.index().string(), table, row);
+      // Key/value tables name the row by its key.
+      const bool keyed = want_row && (want.ColumnName(0) == "key" || want.ColumnName(0) == "name");
+      std::string where = keyed ? fmt::format("{}: {} '{}'", paths.index().string(), table, want.Text(0))
+                                : fmt::format("{}: {} row {}", paths.index().string(), table, row);
       // Name the shard file itself, which is what a user has to look at.
       for (int c = 0; want_row && c < want.ColumnCount(); ++c) {
         if (want.ColumnName(c) == "file") where = fmt::format("{} ({})", where, want.Text(c));
       }
+      // index_meta is what the manifest says; every other table is what the shards hold.
+      const std::string_view source = table == "index_meta" ? "from the manifest" : "from the shards";
       if (want_row != have_row) {
-        diffs.push_back(fmt::format("{}: the index has {} rows than the shards give", where,
-                                    have_row ? "more" : "fewer"));
+        diffs.push_back(fmt::format("{}: the index has {} rows than {} give", where, have_row ? "more" : "fewer",
+                                    table == "index_meta" ? "the manifest and shards" : "the shards"));
         break;
       }
       for (int c = 0; c < want.ColumnCount(); ++c) {
         if (!SameValue(want, have, c)) {
-          diffs.push_back(fmt::format("{}: {}: {} in the index, {} from the shards", where, want.ColumnName(c),
-                                      ValueText(have, c), ValueText(want, c)));
+          diffs.push_back(fmt::format("{}: {}: {} in the index, {} {}", where, want.ColumnName(c),
+                                      ValueText(have, c), ValueText(want, c), source));
         }
       }
     }

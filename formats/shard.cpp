@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <algorithm>
 #include <optional>
 
 #include "solid/formats/files.h"
@@ -63,6 +64,245 @@ bool AllFinite(const Affine3x4& m) {
   return true;
 }
 
+// row_xxh64 (docs/dataset-format.md, "Checksums"): XXH64 over each value of the row in
+// column order, as a type byte and its bytes. A BLOB or mask string with a sibling
+// checksum column adds only its length: the sibling covers its bytes, and checking a row
+// then costs no pass over its image.
+class RowHash {
+ public:
+  void Null() { Tag(0); }
+  void Int(int64_t v) {
+    Tag(1);
+    Word(static_cast<uint64_t>(v));
+  }
+  void Real(double v) {
+    Tag(2);
+    Word(std::bit_cast<uint64_t>(v));
+  }
+  void Text(std::string_view t) {
+    Tag(3);
+    Word(t.size());
+    bytes_.append(t);
+  }
+  void Blob(std::span<const uint8_t> b) {
+    Tag(4);
+    Word(b.size());
+    bytes_.append(reinterpret_cast<const char*>(b.data()), b.size());
+  }
+  void Covered(size_t length) {
+    Tag(5);
+    Word(length);
+  }
+  uint64_t Digest() const { return Xxh64(bytes_); }
+
+ private:
+  void Tag(char t) { bytes_.push_back(t); }
+  void Word(uint64_t v) {
+    for (int i = 0; i < 8; ++i) bytes_.push_back(static_cast<char>(v >> (8 * i)));
+  }
+  std::string bytes_;
+};
+
+// SQLite may keep an integral REAL as an integer on disk and reads it back as +0.0
+// whatever its sign: store zero as +0.0, so that what is hashed is what is read.
+double Canonical(double v) { return v == 0 ? 0.0 : v; }
+
+// Binds the values of one INSERT in column order and hashes them as RowHash does;
+// Finish() binds row_xxh64 as the last column.
+class RowBinder {
+ public:
+  explicit RowBinder(Stmt& stmt) : stmt_(stmt) {}
+  RowBinder& Int(int64_t v) {
+    stmt_.Bind(++col_, v);
+    hash_.Int(v);
+    return *this;
+  }
+  RowBinder& Real(double v) {
+    v = Canonical(v);
+    stmt_.Bind(++col_, v);
+    hash_.Real(v);
+    return *this;
+  }
+  RowBinder& Real(const std::optional<double>& v) { return v ? Real(*v) : Null(); }
+  RowBinder& Text(std::string_view v) {
+    stmt_.Bind(++col_, v);
+    hash_.Text(v);
+    return *this;
+  }
+  RowBinder& Text(const std::string& v) { return Text(std::string_view(v)); }
+  RowBinder& Text(const std::optional<std::string>& v) { return v ? Text(std::string_view(*v)) : Null(); }
+  RowBinder& Null() {
+    stmt_.BindNull(++col_);
+    hash_.Null();
+    return *this;
+  }
+  // A blob (or mask string) and its checksum column.
+  RowBinder& Checked(std::span<const uint8_t> bytes, bool text) {
+    if (text) {
+      stmt_.Bind(++col_, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    } else {
+      stmt_.BindBlob(++col_, bytes);
+    }
+    hash_.Covered(bytes.size());
+    return Int(ToSqlInt(Xxh64(bytes)));
+  }
+  RowBinder& CheckedText(std::string_view text) {
+    return Checked({reinterpret_cast<const uint8_t*>(text.data()), text.size()}, true);
+  }
+  Stmt& Finish() {
+    stmt_.Bind(++col_, ToSqlInt(hash_.Digest()));
+    return stmt_;
+  }
+
+ private:
+  Stmt& stmt_;
+  int col_ = 0;
+  RowHash hash_;
+};
+
+// The row_xxh64 of the values in columns [0, checksum_col) of the current row; `covered`
+// lists the columns whose bytes a sibling checksum covers.
+uint64_t RowHashOf(const Stmt& stmt, int checksum_col, const std::vector<int>& covered) {
+  RowHash hash;
+  for (int c = 0; c < checksum_col; ++c) {
+    const int type = stmt.ColumnType(c);
+    if (type != SQLITE_NULL && std::find(covered.begin(), covered.end(), c) != covered.end()) {
+      hash.Covered(type == SQLITE_TEXT ? stmt.Text(c).size() : stmt.Blob(c).size());
+      continue;
+    }
+    switch (type) {
+      case SQLITE_NULL: hash.Null(); break;
+      case SQLITE_INTEGER: hash.Int(stmt.Int(c)); break;
+      case SQLITE_FLOAT: hash.Real(stmt.Real(c)); break;
+      case SQLITE_TEXT: hash.Text(stmt.Text(c)); break;
+      default: hash.Blob(stmt.Blob(c)); break;
+    }
+  }
+  return hash.Digest();
+}
+
+// A table as the checksums see it: every column in table order, row_xxh64 last.
+struct TableLayout {
+  std::string_view name;
+  std::string_view columns;
+  int checksum_col;                       // of row_xxh64
+  std::vector<int> covered;               // columns whose bytes a sibling checksum covers
+  std::vector<std::pair<int, int>> blobs;  // (content, its checksum) column pairs
+  std::string_view order;                 // the canonical row order of content_xxh64
+};
+
+constexpr std::string_view kContentKey = "content_xxh64";
+
+constexpr std::string_view kMetaColumns = "key, value, row_xxh64";
+
+constexpr std::string_view kImageColumns =
+    "image_id, seed, width, height, image_format, image, image_xxh64, fx, fy, cx, cy, "
+    "world_from_camera, world_from_camera_xxh64, depth, depth_xxh64, room_key, row_xxh64";
+
+constexpr std::string_view kInstanceColumns =
+    "instance_id, image_id, ordinal, model_key, visible_rle, visible_rle_xxh64, full_rle, full_rle_xxh64, "
+    "visible_x, visible_y, visible_w, visible_h, full_x, full_y, full_w, full_h, visible_area, full_area, "
+    "occlusion, truncation, scale_class, world_from_object, world_from_object_xxh64, object_scale, "
+    "camera_distance, view_azimuth, view_elevation, row_xxh64";
+
+constexpr std::string_view kModelColumns = "model_key, view_count, failure, row_xxh64";
+
+constexpr std::string_view kViewColumns =
+    "query_id, model_key, view_index, azimuth, elevation, width, height, image_format, image, image_xxh64, "
+    "box_x, box_y, box_w, box_h, row_xxh64";
+
+const TableLayout& MetaTable() {
+  static const TableLayout t{"shard_meta", kMetaColumns, 2, {}, {}, "key"};
+  return t;
+}
+const TableLayout& ImagesTable() {
+  static const TableLayout t{"images", kImageColumns, 16, {5, 11, 13}, {{5, 6}, {11, 12}, {13, 14}}, "image_id"};
+  return t;
+}
+const TableLayout& InstancesTable() {
+  static const TableLayout t{"instances", kInstanceColumns, 27, {4, 6, 21}, {{4, 5}, {6, 7}, {21, 22}}, "instance_id"};
+  return t;
+}
+const TableLayout& ModelsTable() {
+  static const TableLayout t{"query_models", kModelColumns, 3, {}, {}, "model_key"};
+  return t;
+}
+const TableLayout& ViewsTable() {
+  static const TableLayout t{"query_views", kViewColumns, 14, {8}, {{8, 9}}, "query_id"};
+  return t;
+}
+
+std::string RowLabel(const Stmt& stmt, const TableLayout& table) {
+  if (stmt.ColumnType(0) == SQLITE_INTEGER) return fmt::format("{} row {}", table.name, stmt.Int(0));
+  return fmt::format("{} '{}'", table.name, stmt.Text(0).substr(0, 80));
+}
+
+Status RowChecksumMismatch(const std::string& where, uint64_t stored, uint64_t actual) {
+  return CorruptError(fmt::format("{}: row_xxh64: checksum mismatch (stored {}, the row's values give {})", where,
+                                  Hex64(stored), Hex64(actual)));
+}
+
+// content_xxh64: XXH64 over the row checksums (8 bytes little-endian each) of shard_meta
+// (by key, without content_xxh64 itself), then of each table in its canonical order. A row
+// added, removed or changed changes it.
+class ContentDigest {
+ public:
+  void Add(uint64_t row_xxh64) {
+    for (int i = 0; i < 8; ++i) bytes_.push_back(static_cast<char>(row_xxh64 >> (8 * i)));
+  }
+  uint64_t Digest() const { return Xxh64(bytes_); }
+
+ private:
+  std::string bytes_;
+};
+
+// Recomputes every row checksum (and, with kVerify, every blob checksum) of `tables` and
+// content_xxh64; the first disagreement, naming its row.
+Status VerifyTables(Db& db, const std::vector<const TableLayout*>& tables, ChecksumPolicy policy) {
+  ContentDigest digest;
+  std::optional<uint64_t> stored_content;
+  for (const TableLayout* table : tables) {
+    SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(db, fmt::format("SELECT {} FROM {} ORDER BY {}", table->columns,
+                                                                    table->name, table->order)));
+    const bool meta = table == &MetaTable();
+    for (;;) {
+      SOLID_ASSIGN_OR_RETURN(bool row, stmt.Step());
+      if (!row) break;
+      const std::string where = fmt::format("{}: {}", db.name(), RowLabel(stmt, *table));
+      if (stmt.ColumnType(table->checksum_col) != SQLITE_INTEGER) {
+        return CorruptError(where + ": row_xxh64: not an integer");
+      }
+      const uint64_t stored = FromSqlInt(stmt.Int(table->checksum_col));
+      const uint64_t actual = RowHashOf(stmt, table->checksum_col, table->covered);
+      if (stored != actual) return RowChecksumMismatch(where, stored, actual);
+      if (policy == ChecksumPolicy::kVerify) {
+        for (const auto& [content, checksum] : table->blobs) {
+          const int type = stmt.ColumnType(content);
+          if (type == SQLITE_NULL) continue;
+          std::span<const uint8_t> bytes = stmt.Blob(content);
+          if (stmt.ColumnType(checksum) != SQLITE_INTEGER || FromSqlInt(stmt.Int(checksum)) != Xxh64(bytes)) {
+            return CorruptError(fmt::format("{}: {}: checksum mismatch", where, stmt.ColumnName(content)));
+          }
+        }
+      }
+      if (meta && stmt.Text(0) == kContentKey) {
+        uint64_t value = 0;
+        if (!ParseHex64(stmt.Text(1), &value)) return CorruptError(where + ": value: not 16 hex digits");
+        stored_content = value;
+        continue;
+      }
+      digest.Add(stored);
+    }
+  }
+  if (!stored_content) return CorruptError(fmt::format("{}: shard_meta: no {}", db.name(), kContentKey));
+  if (*stored_content != digest.Digest()) {
+    return CorruptError(fmt::format("{}: shard_meta '{}': stored {}, the rows give {} (a row was added, removed or "
+                                    "changed)",
+                                    db.name(), kContentKey, Hex64(*stored_content), Hex64(digest.Digest())));
+  }
+  return Status::Ok();
+}
+
 // Common part of both shard writers: the temporary file, its transaction, publication.
 class AtomicShard {
  public:
@@ -106,6 +346,29 @@ class AtomicShard {
   Db& db() { return db_; }
   const fs::path& final_path() const { return final_path_; }
 
+ private:
+  Status PutMeta(std::string_view key, std::string_view value) {
+    SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(db_, "INSERT OR REPLACE INTO shard_meta VALUES (?, ?, ?)"));
+    RowBinder(stmt).Text(key).Text(value).Finish();
+    return stmt.Run().WithContext(fmt::format("{}: shard_meta '{}'", final_path_.string(), key));
+  }
+
+  Status WriteContentDigest(const std::vector<const TableLayout*>& tables) {
+    ContentDigest digest;
+    for (const TableLayout* table : tables) {
+      SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(db_, fmt::format("SELECT row_xxh64 FROM {} ORDER BY {}",
+                                                                       table->name, table->order)));
+      for (;;) {
+        SOLID_ASSIGN_OR_RETURN(bool row, stmt.Step());
+        if (!row) break;
+        digest.Add(FromSqlInt(stmt.Int(0)));
+      }
+    }
+    return PutMeta(kContentKey, Hex64(digest.Digest()));
+  }
+
+ public:
+
   Status Usable() const {
     if (!open_) return InvalidArgumentError(final_path_.string() + ": writer already committed or failed");
     return Status::Ok();
@@ -113,14 +376,15 @@ class AtomicShard {
 
   Status SetMeta(std::string_view key, std::string_view value) {
     SOLID_RETURN_IF_ERROR(Usable());
-    SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(db_, "INSERT OR REPLACE INTO shard_meta VALUES (?, ?)"));
-    stmt.Bind(1, key).Bind(2, value);
-    return stmt.Run();
+    if (key == kContentKey) return InvalidArgumentError(fmt::format("{}: {} is the writer's", final_path_.string(), key));
+    return PutMeta(key, value);
   }
 
-  Status Commit(const std::function<void()>& release_statements) {
+  // Publishes the shard, after content_xxh64 over `tables` (their canonical order).
+  Status Commit(const std::vector<const TableLayout*>& tables, const std::function<void()>& release_statements) {
     SOLID_RETURN_IF_ERROR(Usable());
-    Status s = db_.Exec("COMMIT");
+    Status s = WriteContentDigest(tables);
+    if (s.ok()) s = db_.Exec("COMMIT");
     release_statements();
     db_.Close();
     if (s.ok()) s = files::SyncAndPublish(temp_path_, final_path_, replace_);
@@ -223,6 +487,15 @@ class RowReader {
     return m;
   }
 
+  // row_xxh64 of a row read with all of its table's columns (TableLayout).
+  Status RowChecksum(const TableLayout& table) const {
+    if (stmt_.ColumnType(table.checksum_col) != SQLITE_INTEGER) return Fail("row_xxh64", "not an integer");
+    const uint64_t stored = FromSqlInt(stmt_.Int(table.checksum_col));
+    const uint64_t actual = RowHashOf(stmt_, table.checksum_col, table.covered);
+    if (stored != actual) return RowChecksumMismatch(where_, stored, actual);
+    return Status::Ok();
+  }
+
   Result<rle::Box> Box(int first_col, std::string_view field) const {
     rle::Box b;
     SOLID_ASSIGN_OR_RETURN(b.x, Int(first_col, fmt::format("{}_x", field), 0, kMaxImageSide));
@@ -238,14 +511,17 @@ class RowReader {
 };
 
 Result<std::vector<std::pair<std::string, std::string>>> ReadMeta(Db& db) {
-  SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(db, "SELECT key, value FROM shard_meta ORDER BY key"));
+  SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(db, fmt::format("SELECT {} FROM shard_meta ORDER BY key",
+                                                                  kMetaColumns)));
   std::vector<std::pair<std::string, std::string>> meta;
   for (;;) {
     SOLID_ASSIGN_OR_RETURN(bool row, stmt.Step());
     if (!row) break;
-    RowReader r(stmt, db.name() + ": shard_meta");
+    RowReader r(stmt, fmt::format("{}: {}", db.name(), RowLabel(stmt, MetaTable())));
+    SOLID_RETURN_IF_ERROR(r.RowChecksum(MetaTable()));
     SOLID_ASSIGN_OR_RETURN(std::string key, r.Text(0, "key", kMaxKeyLength));
     SOLID_ASSIGN_OR_RETURN(std::string value, r.Text(1, "value", 1 << 20));
+    if (key == kContentKey) continue;  // the writer's, checked by VerifyContent
     meta.emplace_back(std::move(key), std::move(value));
   }
   return meta;
@@ -258,16 +534,6 @@ Result<Db> OpenUntrusted(const fs::path& path, std::string_view ddl) {
   SOLID_RETURN_IF_ERROR(sqlite::CheckSchema(db, ddl));
   return db;
 }
-
-constexpr std::string_view kImageColumns =
-    "image_id, seed, width, height, image_format, image, image_xxh64, fx, fy, cx, cy, "
-    "world_from_camera, world_from_camera_xxh64, depth, depth_xxh64, room_key";
-
-constexpr std::string_view kInstanceColumns =
-    "instance_id, image_id, ordinal, model_key, visible_rle, visible_rle_xxh64, full_rle, full_rle_xxh64, "
-    "visible_x, visible_y, visible_w, visible_h, full_x, full_y, full_w, full_h, visible_area, full_area, "
-    "occlusion, truncation, scale_class, world_from_object, world_from_object_xxh64, object_scale, "
-    "camera_distance, view_azimuth, view_elevation";
 
 Result<InstanceRecord> ParseInstance(const Stmt& stmt, const std::string& file, ChecksumPolicy policy) {
   RowReader r(stmt, fmt::format("{}: instances row {}", file, stmt.Int(0)));
@@ -307,12 +573,10 @@ Result<InstanceRecord> ParseInstance(const Stmt& stmt, const std::string& file, 
   SOLID_ASSIGN_OR_RETURN(in.camera_distance, r.Real(24, "camera_distance"));
   SOLID_ASSIGN_OR_RETURN(in.view_azimuth, r.Real(25, "view_azimuth"));
   SOLID_ASSIGN_OR_RETURN(in.view_elevation, r.Real(26, "view_elevation"));
+  // Last: a value's own check names the field more precisely.
+  SOLID_RETURN_IF_ERROR(r.RowChecksum(InstancesTable()));
   return in;
 }
-
-constexpr std::string_view kViewColumns =
-    "query_id, model_key, view_index, azimuth, elevation, width, height, image_format, image, image_xxh64, "
-    "box_x, box_y, box_w, box_h";
 
 Result<QueryViewRecord> ParseView(const Stmt& stmt, const std::string& file, ChecksumPolicy policy) {
   RowReader r(stmt, fmt::format("{}: query_views row {}", file, stmt.Int(0)));
@@ -333,6 +597,8 @@ Result<QueryViewRecord> ParseView(const Stmt& stmt, const std::string& file, Che
   SOLID_ASSIGN_OR_RETURN(auto image, r.Checked(8, 9, "image", policy, false));
   v.image.assign(image.begin(), image.end());
   SOLID_ASSIGN_OR_RETURN(v.box, r.Box(10, "box"));
+  // Last: a value's own check names the field more precisely.
+  SOLID_RETURN_IF_ERROR(r.RowChecksum(ViewsTable()));
   return v;
 }
 
@@ -349,6 +615,7 @@ Result<int64_t> ParseQueryShardFileName(std::string_view name) { return ParseSha
 struct ShardWriter::Impl {
   AtomicShard shard;
   std::optional<Stmt> insert_image, insert_instance;
+  int64_t next_instance_id = 1;
 };
 
 ShardWriter::ShardWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -361,12 +628,13 @@ Result<ShardWriter> ShardWriter::Create(const fs::path& path, const ShardWriteOp
   SOLID_ASSIGN_OR_RETURN(impl->shard, AtomicShard::Begin(path, options, kTargetDdl));
   Db& db = impl->shard.db();
   SOLID_ASSIGN_OR_RETURN(impl->insert_image,
-                         Stmt::Prepare(db, fmt::format("INSERT INTO images ({}) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
+                         Stmt::Prepare(db, fmt::format("INSERT INTO images ({}) VALUES "
+                                                       "(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
                                                        kImageColumns)));
   SOLID_ASSIGN_OR_RETURN(
       impl->insert_instance,
       Stmt::Prepare(db, fmt::format("INSERT INTO instances ({}) VALUES "
-                                    "(NULL,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
+                                    "(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
                                     kInstanceColumns)));
   return ShardWriter(std::move(impl));
 }
@@ -386,23 +654,16 @@ Status ShardWriter::AddImage(const ImageRecord& im) {
   if (!AllFinite({c.fx, c.fy, c.cx, c.cy}) || !AllFinite(c.world_from_camera)) {
     return InvalidArgumentError(where + ": camera has a non-finite value");
   }
-  Stmt& s = *impl_->insert_image;
   std::vector<uint8_t> pose = AffineBytes(c.world_from_camera);
-  s.Bind(1, im.image_id).Bind(2, ToSqlInt(im.seed)).Bind(3, int64_t{im.width}).Bind(4, int64_t{im.height});
-  s.Bind(5, ImageFormatName(im.format)).BindBlob(6, im.image).Bind(7, ToSqlInt(Xxh64(im.image)));
-  s.Bind(8, c.fx).Bind(9, c.fy).Bind(10, c.cx).Bind(11, c.cy);
-  s.BindBlob(12, pose).Bind(13, ToSqlInt(Xxh64(pose)));
+  RowBinder row(*impl_->insert_image);
+  row.Int(im.image_id).Int(ToSqlInt(im.seed)).Int(im.width).Int(im.height).Text(ImageFormatName(im.format));
+  row.Checked(im.image, false).Real(c.fx).Real(c.fy).Real(c.cx).Real(c.cy).Checked(pose, false);
   if (im.depth_exr) {
-    s.BindBlob(14, *im.depth_exr).Bind(15, ToSqlInt(Xxh64(*im.depth_exr)));
+    row.Checked(*im.depth_exr, false);
   } else {
-    s.BindNull(14).BindNull(15);
+    row.Null().Null();
   }
-  if (im.room_key) {
-    s.Bind(16, std::string_view(*im.room_key));
-  } else {
-    s.BindNull(16);
-  }
-  return s.Run().WithContext(where);
+  return row.Text(im.room_key).Finish().Run().WithContext(where);
 }
 
 Status ShardWriter::AddInstance(const InstanceRecord& in) {
@@ -421,27 +682,28 @@ Status ShardWriter::AddInstance(const InstanceRecord& in) {
         fmt::format("{}: ordinal outside [0, {}): the limit is {} instances per image", where, kMaxInstancesPerImage,
                     kMaxInstancesPerImage));
   }
-  Stmt& s = *impl_->insert_instance;
   std::vector<uint8_t> pose = AffineBytes(in.world_from_object);
-  s.Bind(1, in.image_id).Bind(2, int64_t{in.ordinal}).Bind(3, std::string_view(in.model_key));
-  s.Bind(4, std::string_view(in.visible_rle)).Bind(5, ToSqlInt(Xxh64(in.visible_rle)));
-  s.Bind(6, std::string_view(in.full_rle)).Bind(7, ToSqlInt(Xxh64(in.full_rle)));
-  s.Bind(8, in.visible_box.x).Bind(9, in.visible_box.y).Bind(10, in.visible_box.w).Bind(11, in.visible_box.h);
-  s.Bind(12, in.full_box.x).Bind(13, in.full_box.y).Bind(14, in.full_box.w).Bind(15, in.full_box.h);
-  s.Bind(16, static_cast<int64_t>(in.visible_area)).Bind(17, static_cast<int64_t>(in.full_area));
-  s.Bind(18, in.occlusion).Bind(19, in.truncation);
+  RowBinder row(*impl_->insert_instance);
+  row.Int(impl_->next_instance_id).Int(in.image_id).Int(in.ordinal).Text(in.model_key);
+  row.CheckedText(in.visible_rle).CheckedText(in.full_rle);
+  row.Int(in.visible_box.x).Int(in.visible_box.y).Int(in.visible_box.w).Int(in.visible_box.h);
+  row.Int(in.full_box.x).Int(in.full_box.y).Int(in.full_box.w).Int(in.full_box.h);
+  row.Int(static_cast<int64_t>(in.visible_area)).Int(static_cast<int64_t>(in.full_area));
+  row.Real(in.occlusion).Real(in.truncation);
   if (in.scale_class) {
-    s.Bind(20, ScaleClassName(*in.scale_class));
+    row.Text(ScaleClassName(*in.scale_class));
   } else {
-    s.BindNull(20);
+    row.Null();
   }
-  s.BindBlob(21, pose).Bind(22, ToSqlInt(Xxh64(pose)));
-  s.Bind(23, in.object_scale).Bind(24, in.camera_distance).Bind(25, in.view_azimuth).Bind(26, in.view_elevation);
-  return s.Run().WithContext(where);
+  row.Checked(pose, false).Real(in.object_scale).Real(in.camera_distance).Real(in.view_azimuth);
+  row.Real(in.view_elevation);
+  SOLID_RETURN_IF_ERROR(row.Finish().Run().WithContext(where));
+  ++impl_->next_instance_id;
+  return Status::Ok();
 }
 
 Status ShardWriter::Commit() {
-  return impl_->shard.Commit([this] {
+  return impl_->shard.Commit({&MetaTable(), &ImagesTable(), &InstancesTable()}, [this] {
     impl_->insert_image.reset();
     impl_->insert_instance.reset();
   });
@@ -453,6 +715,7 @@ Status ShardWriter::Commit() {
 struct QueryShardWriter::Impl {
   AtomicShard shard;
   std::optional<Stmt> insert_model, insert_view;
+  int64_t next_query_id = 1;
 };
 
 QueryShardWriter::QueryShardWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -464,10 +727,12 @@ Result<QueryShardWriter> QueryShardWriter::Create(const fs::path& path, const Sh
   auto impl = std::make_unique<Impl>();
   SOLID_ASSIGN_OR_RETURN(impl->shard, AtomicShard::Begin(path, options, kQueryDdl));
   Db& db = impl->shard.db();
-  SOLID_ASSIGN_OR_RETURN(impl->insert_model, Stmt::Prepare(db, "INSERT INTO query_models VALUES (?, ?, ?)"));
+  SOLID_ASSIGN_OR_RETURN(impl->insert_model, Stmt::Prepare(db, fmt::format("INSERT INTO query_models ({}) VALUES "
+                                                                           "(?, ?, ?, ?)",
+                                                                           kModelColumns)));
   SOLID_ASSIGN_OR_RETURN(impl->insert_view,
                          Stmt::Prepare(db, fmt::format("INSERT INTO query_views ({}) VALUES "
-                                                       "(NULL,?,?,?,?,?,?,?,?,?,?,?,?,?)",
+                                                       "(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
                                                        kViewColumns)));
   return QueryShardWriter(std::move(impl));
 }
@@ -484,14 +749,13 @@ Status QueryShardWriter::AddModel(const QueryModelRecord& m) {
     return InvalidArgumentError(path().string() + ": model_key must have 1.." + std::to_string(kMaxKeyLength) +
                                 " bytes");
   }
-  Stmt& s = *impl_->insert_model;
-  s.Bind(1, std::string_view(m.model_key)).Bind(2, int64_t{m.view_count});
-  if (m.failure) {
-    s.Bind(3, std::string_view(*m.failure));
-  } else {
-    s.BindNull(3);
-  }
-  return s.Run().WithContext(fmt::format("{}: model {}", path().string(), m.model_key));
+  return RowBinder(*impl_->insert_model)
+      .Text(m.model_key)
+      .Int(m.view_count)
+      .Text(m.failure)
+      .Finish()
+      .Run()
+      .WithContext(fmt::format("{}: model {}", path().string(), m.model_key));
 }
 
 Status QueryShardWriter::AddView(const QueryViewRecord& v) {
@@ -499,12 +763,13 @@ Status QueryShardWriter::AddView(const QueryViewRecord& v) {
   std::string where = fmt::format("{}: model {} view {}", path().string(), v.model_key, v.view_index);
   if (v.width == 0 || v.height == 0 || v.image.empty()) return InvalidArgumentError(where + ": empty image");
   if (!AllFinite({v.azimuth, v.elevation})) return InvalidArgumentError(where + ": a non-finite angle");
-  Stmt& s = *impl_->insert_view;
-  s.Bind(1, std::string_view(v.model_key)).Bind(2, int64_t{v.view_index}).Bind(3, v.azimuth).Bind(4, v.elevation);
-  s.Bind(5, int64_t{v.width}).Bind(6, int64_t{v.height}).Bind(7, ImageFormatName(v.format));
-  s.BindBlob(8, v.image).Bind(9, ToSqlInt(Xxh64(v.image)));
-  s.Bind(10, v.box.x).Bind(11, v.box.y).Bind(12, v.box.w).Bind(13, v.box.h);
-  return s.Run().WithContext(where);
+  RowBinder row(*impl_->insert_view);
+  row.Int(impl_->next_query_id).Text(v.model_key).Int(v.view_index).Real(v.azimuth).Real(v.elevation);
+  row.Int(v.width).Int(v.height).Text(ImageFormatName(v.format)).Checked(v.image, false);
+  row.Int(v.box.x).Int(v.box.y).Int(v.box.w).Int(v.box.h);
+  SOLID_RETURN_IF_ERROR(row.Finish().Run().WithContext(where));
+  ++impl_->next_query_id;
+  return Status::Ok();
 }
 
 Status QueryShardWriter::Commit() {
@@ -521,7 +786,7 @@ Status QueryShardWriter::Commit() {
                                               path().string(), check.Text(0)));
     }
   }
-  return impl_->shard.Commit([this] {
+  return impl_->shard.Commit({&MetaTable(), &ModelsTable(), &ViewsTable()}, [this] {
     impl_->insert_model.reset();
     impl_->insert_view.reset();
   });
@@ -550,6 +815,10 @@ Result<ShardReader> ShardReader::Open(const fs::path& path) {
 const fs::path& ShardReader::path() const { return impl_->path; }
 
 Result<std::vector<std::pair<std::string, std::string>>> ShardReader::Meta() { return ReadMeta(impl_->db); }
+
+Status ShardReader::VerifyContent(ChecksumPolicy policy) {
+  return VerifyTables(impl_->db, {&MetaTable(), &ImagesTable(), &InstancesTable()}, policy);
+}
 
 Result<ShardCounts> ShardReader::Counts() {
   ShardCounts counts;
@@ -638,6 +907,8 @@ Result<ImageRecord> ShardReader::ReadImage(int64_t image_id, ChecksumPolicy poli
     im.depth_exr.emplace(depth.begin(), depth.end());
   }
   SOLID_ASSIGN_OR_RETURN(im.room_key, r.OptionalText(15, "room_key", kMaxKeyLength));
+  // Last: a value's own check names the field more precisely.
+  SOLID_RETURN_IF_ERROR(r.RowChecksum(ImagesTable()));
   return im;
 }
 
@@ -718,9 +989,14 @@ const fs::path& QueryShardReader::path() const { return impl_->path; }
 
 Result<std::vector<std::pair<std::string, std::string>>> QueryShardReader::Meta() { return ReadMeta(impl_->db); }
 
+Status QueryShardReader::VerifyContent(ChecksumPolicy policy) {
+  return VerifyTables(impl_->db, {&MetaTable(), &ModelsTable(), &ViewsTable()}, policy);
+}
+
 Result<std::vector<QueryModelRecord>> QueryShardReader::Models() {
-  SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(impl_->db, "SELECT model_key, view_count, failure FROM query_models "
-                                                             "ORDER BY model_key"));
+  SOLID_ASSIGN_OR_RETURN(Stmt stmt, Stmt::Prepare(impl_->db, fmt::format("SELECT {} FROM query_models ORDER BY "
+                                                                         "model_key",
+                                                                         kModelColumns)));
   std::vector<QueryModelRecord> models;
   for (;;) {
     SOLID_ASSIGN_OR_RETURN(bool row, stmt.Step());
@@ -731,6 +1007,7 @@ Result<std::vector<QueryModelRecord>> QueryShardReader::Models() {
     SOLID_ASSIGN_OR_RETURN(int64_t count, r.Int(1, "view_count", 0, 1 << 16));
     m.view_count = static_cast<int32_t>(count);
     SOLID_ASSIGN_OR_RETURN(m.failure, r.OptionalText(2, "failure", 1 << 16));
+    SOLID_RETURN_IF_ERROR(r.RowChecksum(ModelsTable()));
     models.push_back(std::move(m));
   }
   return models;

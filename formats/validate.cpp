@@ -131,12 +131,39 @@ class Checker {
     }
   }
 
+  // What the shard says it was made from, compared with the dataset's manifest when there
+  // is one and with its file name. Returns the manifest its rows are checked against: the
+  // dataset's, else the shard's own.
+  template <typename Reader>
+  std::optional<Manifest> CheckProvenanceOf(Reader& reader, const fs::path& path, const Manifest* manifest,
+                                            std::optional<int64_t> shard_index) {
+    Status content = reader.VerifyContent(ChecksumPolicy::kSkip);  // the blobs are hashed as they are read
+    if (!content.ok()) Problem(content);
+    Result<std::vector<std::pair<std::string, std::string>>> meta = reader.Meta();
+    if (!meta.ok()) {
+      Problem(meta.status());
+      return manifest ? std::optional<Manifest>(*manifest) : std::nullopt;
+    }
+    Result<ShardProvenance> found = ReadProvenance(*meta, path.string());
+    if (!found.ok()) {
+      Problem(found.status());
+      return manifest ? std::optional<Manifest>(*manifest) : std::nullopt;
+    }
+    if (manifest && shard_index) {
+      Status belongs = CheckProvenance(*found, *manifest, *shard_index, path.string());
+      if (!belongs.ok()) Problem(belongs);
+      return *manifest;
+    }
+    if (shard_index && found->shard_index != *shard_index) {
+      Problem(path.string() + ": provenance", fmt::format("shard_index {} in the shard, {} by its file name",
+                                                          found->shard_index, *shard_index));
+    }
+    return found->manifest;
+  }
+
   // Returns the model keys the shard's instances use.
-  // Without a manifest, scale classes are checked as the dataset holding the shard counts
-  // them, if it is in one (ScaleClassAreaScaleOfShard).
-  std::set<std::string> CheckTargetShard(const fs::path& path, const Manifest* manifest,
+  std::set<std::string> CheckTargetShard(const fs::path& path, const Manifest* dataset_manifest,
                                          std::optional<int64_t> shard_index) {
-    const double area_scale = manifest ? manifest->ScaleClassAreaScale() : ScaleClassAreaScaleOfShard(path);
     std::set<std::string> models;
     ++report_->shards;
     CheckIntegrity(path);
@@ -145,6 +172,10 @@ class Checker {
       Problem(reader.status());
       return models;
     }
+    const std::optional<Manifest> own = CheckProvenanceOf(*reader, path, dataset_manifest, shard_index);
+    const Manifest* manifest = own ? &*own : nullptr;
+    // Scale classes as the manifest counts them (the shard's own, for a shard read alone).
+    const double area_scale = manifest ? manifest->ScaleClassAreaScale() : 1.0;
     Result<std::vector<int64_t>> ids = reader->ImageIds();
     if (!ids.ok()) {
       Problem(ids.status());
@@ -196,7 +227,8 @@ class Checker {
   }
 
   // Returns the models with at least one view.
-  std::set<std::string> CheckQueryShard(const fs::path& path) {
+  std::set<std::string> CheckQueryShard(const fs::path& path, const Manifest* manifest,
+                                        std::optional<int64_t> shard_index) {
     std::set<std::string> with_views;
     ++report_->query_shards;
     CheckIntegrity(path);
@@ -205,6 +237,7 @@ class Checker {
       Problem(reader.status());
       return with_views;
     }
+    (void)CheckProvenanceOf(*reader, path, manifest, shard_index);
     Result<std::vector<QueryModelRecord>> models = reader->Models();
     if (!models.ok()) {
       Problem(models.status());
@@ -266,7 +299,13 @@ ValidationReport ValidateDataset(const fs::path& root, const ValidateOptions& op
     check.Problem(listing.status());
     return report;
   }
-  for (const fs::path& p : listing->unexpected) check.Problem(p.string(), "unexpected file in a shard directory");
+  for (const fs::path& p : listing->unexpected) {
+    const std::string name = p.filename().string();
+    const bool shard_name = ParseTargetShardFileName(name).ok() || ParseQueryShardFileName(name).ok();
+    check.Problem(p.string(), shard_name ? "named as a shard, but not a regular file inside the dataset (solid "
+                                           "render --repair replaces it)"
+                                         : "unexpected file in a shard directory");
+  }
 
   int64_t total = static_cast<int64_t>(listing->targets.size() + listing->queries.size()), done = 0;
   std::set<std::string> instanced, with_views;
@@ -281,7 +320,7 @@ ValidationReport ValidateDataset(const fs::path& root, const ValidateOptions& op
   }
   for (const ShardFile& f : listing->queries) {
     if (options.progress) options.progress(done++, total);
-    std::set<std::string> models = check.CheckQueryShard(f.path);
+    std::set<std::string> models = check.CheckQueryShard(f.path, manifest.ok() ? &*manifest : nullptr, f.index);
     for (const std::string& m : models) {
       if (!with_views.insert(m).second) check.Problem(f.path.string(), "model " + m + " has views in two query shards");
     }
@@ -306,10 +345,27 @@ ValidationReport ValidateDataset(const fs::path& root, const ValidateOptions& op
 ValidationReport ValidateShardFile(const fs::path& path, const ValidateOptions& options) {
   ValidationReport report;
   Checker check(options, &report);
-  if (ParseQueryShardFileName(path.filename().string()).ok()) {
-    check.CheckQueryShard(path);
+  const std::string name = path.filename().string();
+  if (Result<int64_t> q = ParseQueryShardFileName(name); q.ok()) {
+    check.CheckQueryShard(path, nullptr, *q);
   } else {
-    check.CheckTargetShard(path, nullptr, std::nullopt);
+    Result<int64_t> k = ParseTargetShardFileName(name);
+    check.CheckTargetShard(path, nullptr, k.ok() ? std::optional<int64_t>(*k) : std::nullopt);
+  }
+  return report;
+}
+
+ValidationReport ValidateShardOfDataset(const fs::path& path, const Manifest& manifest, bool query,
+                                        int64_t shard_index, const ValidateOptions& options) {
+  ValidationReport report;
+  Checker check(options, &report);
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    check.Problem(path.string(), "not a regular file");
+  } else if (query) {
+    check.CheckQueryShard(path, &manifest, shard_index);
+  } else {
+    check.CheckTargetShard(path, &manifest, shard_index);
   }
   return report;
 }

@@ -327,9 +327,10 @@ std::string KnobName(std::string_view pointer) {
 enum class Naming { kPointer, kKnob };
 
 // One line per problem, "<source>:<line>: <where>: <message>", the line only where `text`
-// has the value.
+// has the value. `code`: kParseError for a params file or preset (bad input, exit 3 like
+// every other file over a limit), kInvalidArgument for params a caller built.
 Status Report(std::string_view source, std::string_view text, const std::vector<json::Violation>& problems,
-              Naming naming) {
+              Naming naming, StatusCode code) {
   const size_t reported = std::min(problems.size(), kMaxReportedProblems);
   std::vector<std::string> pointers;
   for (size_t i = 0; i < reported; ++i) pointers.push_back(problems[i].pointer);
@@ -346,7 +347,7 @@ Status Report(std::string_view source, std::string_view text, const std::vector<
     message += ": " + problems[i].message;
   }
   if (problems.size() > reported) message += fmt::format("\n{}: ... and {} more", source, problems.size() - reported);
-  return InvalidArgumentError(std::move(message));
+  return Status(code, std::move(message));
 }
 
 Result<json::Schema> CompileParamsSchema() {
@@ -375,7 +376,7 @@ const std::vector<std::string>& PresetNames() {
 Result<LayoutParams> ParseParams(const nlohmann::json& document, std::string_view text, std::string_view source) {
   SOLID_ASSIGN_OR_RETURN(const json::Schema* schema, ParamsSchema());
   const std::vector<json::Violation> violations = schema->Validate(document);
-  if (!violations.empty()) return Report(source, text, violations, Naming::kPointer);
+  if (!violations.empty()) return Report(source, text, violations, Naming::kPointer, StatusCode::kParseError);
   // The schema guarantees presence and types from here on.
   LayoutParams params;
   if (const auto preset = document.find("preset"); preset != document.end()) {
@@ -383,7 +384,7 @@ Result<LayoutParams> ParseParams(const nlohmann::json& document, std::string_vie
   }
   ForEachKnob(params, Reader{document});
   const std::vector<json::Violation> problems = FindProblems(params);
-  if (!problems.empty()) return Report(source, text, problems, Naming::kKnob);
+  if (!problems.empty()) return Report(source, text, problems, Naming::kKnob, StatusCode::kParseError);
   return params;
 }
 
@@ -435,7 +436,7 @@ std::string ScaleClassDescription(const LayoutParams& params) {
 Status CheckParams(const LayoutParams& params, std::string_view source) {
   const std::vector<json::Violation> problems = FindProblems(params);
   if (problems.empty()) return Status::Ok();
-  return Report(source, {}, problems, Naming::kKnob);
+  return Report(source, {}, problems, Naming::kKnob, StatusCode::kInvalidArgument);
 }
 
 }  // namespace solid::render

@@ -18,6 +18,7 @@
 
 #include "solid/formats/checksum.h"
 #include "solid/formats/file_lock.h"
+#include "solid/formats/files.h"
 #include "solid/formats/image_codec.h"
 #include "solid/formats/index.h"
 #include "solid/formats/random.h"
@@ -128,10 +129,7 @@ class Renderer {
     ShardWriteOptions write_options;
     write_options.replace_existing = replace;
     SOLID_ASSIGN_OR_RETURN(ShardWriter writer, ShardWriter::Create(paths_.shard(shard), write_options));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("shard_index", std::to_string(shard)));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("generator_version", manifest_.generator_version));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("params_hash", fmt::format("{:016x}", manifest_.ParamsHash())));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("seed", std::to_string(manifest_.seed)));
+    SOLID_RETURN_IF_ERROR(WriteProvenance(writer, manifest_, shard));
 
     const int jobs = static_cast<int>(std::min<int64_t>(WorkerCount(options_.jobs), std::max<int64_t>(1, end - first)));
     const int64_t window = 2 * static_cast<int64_t>(jobs);
@@ -303,9 +301,7 @@ class Renderer {
     write_options.replace_existing = replace;
     const fs::path path = paths_.query_shard(q);
     SOLID_ASSIGN_OR_RETURN(QueryShardWriter writer, QueryShardWriter::Create(path, write_options));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("shard_index", std::to_string(q)));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("generator_version", manifest_.generator_version));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("params_hash", fmt::format("{:016x}", manifest_.ParamsHash())));
+    SOLID_RETURN_IF_ERROR(WriteProvenance(writer, manifest_, q));
     for (ModelViews& m : rendered) {
       SOLID_RETURN_IF_ERROR(m.error.WithContext(path.string()));
       SOLID_RETURN_IF_ERROR(writer.AddModel(m.model));
@@ -333,14 +329,75 @@ class Renderer {
   int64_t progress_done_ = 0, progress_total_ = 0;
 };
 
-// Present and, under repair, undamaged.
-bool Usable(const fs::path& path, bool repair, bool* damaged) {
-  *damaged = false;
+// What stands at a shard's path: nothing, a shard of this dataset, or something else.
+struct Examined {
+  bool present = false;
+  std::string damage;  // why it is not shard k of this dataset; empty when it is
+};
+
+// A resume trusts a present shard only when it is a regular file whose provenance is this
+// dataset's shard k, with its image ids in k's range; --repair validates it whole as well.
+Examined Examine(const fs::path& path, const Manifest& manifest, bool query, int64_t k, bool repair) {
+  Examined e;
   std::error_code ec;
-  if (!fs::exists(path, ec)) return false;
-  if (!repair) return true;
-  *damaged = !ValidateShardFile(path).ok();
-  return !*damaged;
+  const fs::file_status status = fs::symlink_status(path, ec);
+  if (ec || !fs::exists(status)) return e;
+  e.present = true;
+  if (fs::is_symlink(status)) {
+    const fs::path root = path.parent_path().parent_path();
+    if (!files::ResolveInside(root, path.lexically_relative(root).string()).ok()) {
+      e.damage = "a symbolic link that leads out of the dataset";
+      return e;
+    }
+  }
+  if (!fs::is_regular_file(path, ec)) {
+    e.damage = "not a regular file";
+    return e;
+  }
+  if (repair) {
+    const ValidationReport report = ValidateShardOfDataset(path, manifest, query, k);
+    if (!report.ok()) {
+      const ValidationProblem& p = report.problems.front();
+      e.damage = p.location.empty() ? p.message : p.location + ": " + p.message;
+    }
+    return e;
+  }
+  const Status belongs = [&]() -> Status {
+    std::vector<std::pair<std::string, std::string>> meta;
+    if (query) {
+      SOLID_ASSIGN_OR_RETURN(QueryShardReader reader, QueryShardReader::Open(path));
+      SOLID_ASSIGN_OR_RETURN(meta, reader.Meta());
+    } else {
+      SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
+      SOLID_ASSIGN_OR_RETURN(meta, reader.Meta());
+      SOLID_ASSIGN_OR_RETURN(ShardCounts counts, reader.Counts());
+      const int64_t first = k * manifest.shard_size, end = std::min(first + manifest.shard_size, manifest.images);
+      if (counts.images > 0 && (counts.first_image_id < first || counts.last_image_id >= end)) {
+        return CorruptError(fmt::format("{}: images: ids {}-{}, outside shard {}'s range [{}, {})", path.string(),
+                                        counts.first_image_id, counts.last_image_id, k, first, end));
+      }
+    }
+    SOLID_ASSIGN_OR_RETURN(ShardProvenance found, ReadProvenance(meta, path.string()));
+    return CheckProvenance(found, manifest, k, path.string());
+  }();
+  if (!belongs.ok()) e.damage = belongs.message();
+  return e;
+}
+
+// A damaged shard under --repair: what stands at its path goes (a symbolic link, never its
+// target), so that the shard rendered anew can be renamed into place.
+Status ClearForRepair(const fs::path& path) {
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(path, ec);
+  if (ec || fs::is_regular_file(status) || !fs::exists(status)) return Status::Ok();
+  fs::remove_all(path, ec);
+  if (ec) return IoError(fmt::format("{}: cannot remove it to repair the shard: {}", path.string(), ec.message()));
+  return Status::Ok();
+}
+
+Status Refuse(const fs::path& path, const std::string& damage) {
+  return CorruptError(fmt::format("{}: not this dataset's shard: {}; solid render --repair re-renders it",
+                                  path.string(), damage));
 }
 
 // Model keys used by the instances of a present target shard.
@@ -366,6 +423,8 @@ nlohmann::json RenderReport::ToJson() const {
           {"shards_rendered", shards_rendered},
           {"shards_present", shards_present},
           {"shards_repaired", shards_repaired},
+          {"query_shards_repaired", query_shards_repaired},
+          {"adopted", adopted},
           {"images", images},
           {"instances", instances},
           {"failed_images", failed_images},
@@ -414,15 +473,35 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
 
 Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options) {
   const auto start = Clock::now();
+  bool report_adopted = false;
   if (options.images < 0) return InvalidArgumentError("--images must be >= 0");
   if (options.shard_size < 1) return InvalidArgumentError("--shard-size must be >= 1");
   if (options.query_shard_models < 1) return InvalidArgumentError("query_shard_models must be >= 1");
   const Manifest manifest = RenderManifest(sampler, options);
   const DatasetPaths paths(options.out);
 
+  auto note = [&](const std::string& line) {
+    if (options.on_note) options.on_note(line);
+  };
   // Farm processes may race to create the dataset: identical manifests make that harmless.
+  // Shards without a manifest are never taken for this render's: their provenance is
+  // adopted, or the render refused.
   std::error_code ec;
-  if (!fs::exists(paths.manifest(), ec)) SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
+  if (!fs::exists(paths.manifest(), ec)) {
+    SOLID_ASSIGN_OR_RETURN(const ShardListing found, ListShards(options.out));
+    const size_t held = found.targets.size() + found.queries.size() + found.unexpected.size();
+    if (held == 0) {
+      SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
+    } else if (!options.adopt) {
+      return NotFoundError(fmt::format("{}: no manifest.json, but {} shard file(s): --adopt rebuilds the manifest "
+                                       "from their provenance (when they agree), or render into a new directory",
+                                       options.out.string(), held));
+    } else {
+      SOLID_ASSIGN_OR_RETURN(const AdoptReport adopted, AdoptManifest(options.out));
+      note(adopted.Summary(options.out));
+      report_adopted = true;
+    }
+  }
   SOLID_ASSIGN_OR_RETURN(Manifest existing, ReadManifest(options.out));
   if (const std::string why = ManifestDifference(existing, manifest); !why.empty()) {
     return AlreadyExistsError(fmt::format("{}: the dataset there was rendered with other settings ({}); render into "
@@ -442,6 +521,7 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
 
   Renderer renderer(sampler, options, manifest);
   RenderReport& report = renderer.report();
+  report.adopted = report_adopted;
   report.shards_requested = shard_count == 0 ? 0 : last - first + 1;
   std::vector<std::pair<int64_t, bool>> todo;  // (shard, replace)
   bool warned_unlocked = false, waiting_noted = false;
@@ -449,19 +529,18 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
   std::set<std::string> models;
   int64_t todo_images = 0;
   for (int64_t k = first; k <= last && shard_count > 0; ++k) {
-    bool damaged = false;
-    if (Usable(paths.shard(k), options.repair, &damaged)) {
+    const Examined e = Examine(paths.shard(k), manifest, /*query=*/false, k, options.repair);
+    if (e.present && e.damage.empty()) {
       ++report.shards_present;
       if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
       continue;
     }
-    todo.emplace_back(k, damaged);
+    if (e.present && !options.repair) return Refuse(paths.shard(k), e.damage);
+    if (e.present) note(fmt::format("shard {}: {}: re-rendering it", k, e.damage));
+    todo.emplace_back(k, e.present);
     todo_images += std::min(manifest.shard_size, manifest.images - k * manifest.shard_size);
   }
   renderer.SetProgressTotal(todo_images);
-  auto note = [&](const std::string& line) {
-    if (options.on_note) options.on_note(line);
-  };
   // Renders shard k under its lock; false when another process holds the lock.
   auto render_locked = [&](int64_t k, bool damaged) -> Result<bool> {
     SOLID_ASSIGN_OR_RETURN(files::FileLock lock, files::FileLock::TryAcquire(paths.shard(k)));
@@ -478,6 +557,7 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
       if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
       return true;
     }
+    if (damaged) SOLID_RETURN_IF_ERROR(ClearForRepair(paths.shard(k)));
     const Status rendered = renderer.RenderShard(k, damaged, &models);
     if (rendered.code() == StatusCode::kCancelled) {
       report.abandoned_shard = k;  // the writer removed its temporary file
@@ -544,16 +624,21 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
       query_shards.insert(static_cast<int64_t>(it - catalog.begin()) / options.query_shard_models);
     }
     for (int64_t q : query_shards) {
-      bool damaged = false;
-      if (Usable(paths.query_shard(q), options.repair, &damaged)) {
+      const Examined e = Examine(paths.query_shard(q), manifest, /*query=*/true, q, options.repair);
+      if (e.present && e.damage.empty()) {
         ++report.query_shards_present;
         continue;
       }
+      if (e.present && !options.repair) return Refuse(paths.query_shard(q), e.damage);
       if (CancelRequested(options.cancel)) {
         stopped = true;
         break;
       }
-      const Status written = renderer.RenderQueryShard(q, damaged);
+      if (e.present) {
+        note(fmt::format("query shard {}: {}: re-rendering it", q, e.damage));
+        SOLID_RETURN_IF_ERROR(ClearForRepair(paths.query_shard(q)));
+      }
+      const Status written = renderer.RenderQueryShard(q, e.present);
       if (written.code() == StatusCode::kCancelled) {
         stopped = true;
         break;
@@ -564,6 +649,7 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
       }
       SOLID_RETURN_IF_ERROR(written);
       ++report.query_shards_rendered;
+      if (e.present) ++report.query_shards_repaired;
     }
   }
 

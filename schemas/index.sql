@@ -2,7 +2,7 @@
 -- Derived data only: deleting it loses nothing. Conventions as in shard.sql.
 
 PRAGMA application_id = 1397506121;  -- 0x534C4049, 'SL@I'
-PRAGMA user_version = 1;
+PRAGMA user_version = 2;
 
 CREATE TABLE index_meta (
   key   TEXT PRIMARY KEY NOT NULL,

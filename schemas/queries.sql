@@ -3,11 +3,12 @@
 -- Conventions as in shard.sql.
 
 PRAGMA application_id = 1397506129;  -- 0x534C4051, 'SL@Q'
-PRAGMA user_version = 1;
+PRAGMA user_version = 2;
 
 CREATE TABLE shard_meta (
   key   TEXT PRIMARY KEY NOT NULL,
-  value TEXT NOT NULL
+  value TEXT NOT NULL,
+  row_xxh64 INTEGER NOT NULL
 ) WITHOUT ROWID;
 
 -- One row per model rendered into this shard, including models whose views all
@@ -15,7 +16,8 @@ CREATE TABLE shard_meta (
 CREATE TABLE query_models (
   model_key  TEXT PRIMARY KEY NOT NULL,
   view_count INTEGER NOT NULL CHECK (view_count >= 0),
-  failure    TEXT
+  failure    TEXT,
+  row_xxh64  INTEGER NOT NULL
 ) WITHOUT ROWID;
 
 CREATE TABLE query_views (
@@ -31,5 +33,6 @@ CREATE TABLE query_views (
   image_xxh64  INTEGER NOT NULL,
   box_x INTEGER NOT NULL, box_y INTEGER NOT NULL,  -- the object's box in the stored crop
   box_w INTEGER NOT NULL, box_h INTEGER NOT NULL,
+  row_xxh64    INTEGER NOT NULL,
   UNIQUE (model_key, view_index)
 );

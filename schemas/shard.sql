@@ -5,20 +5,25 @@
 --
 -- Conventions: 64-bit unsigned values (seeds, xxHash64 checksums) are stored in
 -- INTEGER columns as the signed 64-bit integer with the same bits. Every BLOB or
--- mask string has a sibling <column>_xxh64 = XXH64(bytes, seed 0). Boxes are COCO
+-- mask string has a sibling <column>_xxh64 = XXH64(bytes, seed 0), and every row
+-- of every table a last column row_xxh64: XXH64 of all its other values
+-- (docs/dataset-format.md, "Checksums"). shard_meta's content_xxh64 covers the
+-- set of rows. Boxes are COCO
 -- [x, y, w, h] in pixels (x, y of the top-left pixel; w, h >= 0; all zero for an
 -- empty mask). Masks are COCO compressed RLE strings (column-major runs).
 -- Matrices are BLOBs of 12 little-endian float64, row-major 3x4 [R | t].
 -- World frame: metres, Z up. Camera frame: looks along -Z, +Y up.
 
 PRAGMA application_id = 1397506131;  -- 0x534C4053, 'SL@S'
-PRAGMA user_version = 1;
+PRAGMA user_version = 2;
 
--- Free-form per-shard provenance: shard_index, generator_version, params_hash,
--- seed, stage timings (JSON)... Keys are documented in docs/dataset-format.md.
+-- Per-shard provenance and bookkeeping: shard_index, manifest (what the shard was
+-- made from), content_xxh64, stage timings (JSON)... Keys are documented in
+-- docs/dataset-format.md.
 CREATE TABLE shard_meta (
   key   TEXT PRIMARY KEY NOT NULL,
-  value TEXT NOT NULL
+  value TEXT NOT NULL,
+  row_xxh64 INTEGER NOT NULL
 ) WITHOUT ROWID;
 
 CREATE TABLE images (
@@ -37,6 +42,7 @@ CREATE TABLE images (
   depth        BLOB,                      -- optional OpenEXR, one half-float channel Z, metres
   depth_xxh64  INTEGER,
   room_key     TEXT,                      -- asset key of the room, NULL for none
+  row_xxh64    INTEGER NOT NULL,
   CHECK ((depth IS NULL) = (depth_xxh64 IS NULL))
 );
 
@@ -64,6 +70,7 @@ CREATE TABLE instances (
   camera_distance REAL NOT NULL,          -- camera centre to object centre, metres
   view_azimuth  REAL NOT NULL,            -- camera direction in the object frame, radians
   view_elevation REAL NOT NULL,
+  row_xxh64     INTEGER NOT NULL,
   UNIQUE (image_id, ordinal)
 );
 

@@ -22,7 +22,7 @@ from . import rle
 
 __all__ = ["Dataset", "Image", "Instance", "QueryView", "decode_image"]
 
-_FORMAT_VERSION = 1
+_FORMAT_VERSION = 2
 # The values of schemas/{shard,queries,index}.sql, which are normative ('SL@S', 'SL@Q', 'SL@I').
 _APPLICATION_IDS = {"shard": 1397506131, "queries": 1397506129, "index": 1397506121}
 

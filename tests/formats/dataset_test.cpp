@@ -236,6 +236,7 @@ TEST(Validate, FindsInconsistentFieldsWithTheirLocation) {
   {
     auto writer = ShardWriter::Create(DatasetPaths(dir.path()).shard(0));
     ASSERT_OK(writer.status());
+    ASSERT_OK(WriteProvenance(*writer, manifest, 0));
     ASSERT_OK(writer->AddImage(image->image));
     // Well-formed rows whose values disagree with their masks.
     InstanceRecord bad_box = image->instances[0];

@@ -627,7 +627,7 @@ class ManifestSchemaTest : public testing::Test {
 
   static json ValidManifest() {
     return json::parse(R"({
-      "format": "solid-dataset", "format_version": 1,
+      "format": "solid-dataset", "format_version": 2,
       "generator": {"name": "solid", "version": "0.1.0", "git_sha": "44c1952"},
       "seed": "0x00000000deadbeef", "images": 1000000, "shard_size": 4096,
       "width": 640, "height": 480, "image_format": "png",
@@ -647,7 +647,7 @@ TEST_F(ManifestSchemaTest, RejectsBadManifests) {
   const std::vector<std::pair<json, std::string>> cases = {
       {{{"seed", "0xDEADBEEF"}}, "manifest.json: /seed: does not match pattern ^0x[0-9a-f]{16}$"},
       {{{"format", "solid"}}, "manifest.json: /format: expected \"solid-dataset\", got \"solid\""},
-      {{{"format_version", 2}}, "manifest.json: /format_version: 2 is greater than the maximum 1"},
+      {{{"format_version", 3}}, "manifest.json: /format_version: 3 is greater than the maximum 2"},
       {{{"width", 0}}, "manifest.json: /width: 0 is less than the minimum 1"},
       {{{"images", 1.5}}, "manifest.json: /images: expected integer, got number"},
       {{{"image_format", "gif"}},
@@ -674,7 +674,7 @@ TEST_F(ManifestSchemaTest, RejectsBadManifests) {
 TEST_F(ManifestSchemaTest, ReportsLinesInTheManifestText) {
   const std::string text = R"({
   "format": "solid-dataset",
-  "format_version": 1,
+  "format_version": 2,
   "generator": {"name": "solid", "version": "0.1.0"},
   "seed": "0x00000000DEADBEEF",
   "images": 10, "shard_size": 4, "width": 64, "height": 64, "image_format": "png",

@@ -283,7 +283,7 @@ TEST(ParseParams, UnknownKeyIsAnErrorWithItsPointerAndLine) {
   }
 })");
   ASSERT_FALSE(params.ok());
-  EXPECT_EQ(params.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(params.status().code(), StatusCode::kParseError);
   EXPECT_THAT(params.status().message(), HasSubstr("params.json:3: /camera/ring: unknown key \"ring\""));
   EXPECT_THAT(params.status().message(), HasSubstr("ring_m"));  // the suggestion
 }
@@ -297,7 +297,7 @@ TEST(ParseParams, UnknownTopLevelSectionIsAnError) {
 TEST(ParseParams, WrongTypeIsAnErrorNamingTheKnob) {
   Result<LayoutParams> params = Parse("{\n\"grid\": {\"points_per_axis\": \"many\"}}");
   ASSERT_FALSE(params.ok());
-  EXPECT_EQ(params.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(params.status().code(), StatusCode::kParseError);
   EXPECT_THAT(params.status().message(), HasSubstr("params.json:2: /grid/points_per_axis: expected integer"));
 }
 
@@ -324,7 +324,7 @@ TEST(ParseParams, OutOfRangeValuesAreErrorsNamingTheKnob) {
     SCOPED_TRACE(text);
     Result<LayoutParams> params = Parse(text);
     ASSERT_FALSE(params.ok());
-    EXPECT_EQ(params.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_EQ(params.status().code(), StatusCode::kParseError);
     EXPECT_THAT(params.status().message(), HasSubstr("params.json:1: " + pointer + ": "));
   }
 }
@@ -343,7 +343,7 @@ TEST(ParseParams, MixtureProbabilitiesNotSummingToOneAreAnErrorSayingWhich) {
   Result<LayoutParams> params = Parse(R"({"objects": {"scale": {"law": "mixture",
   "buckets": [{"range_m": [0.1, 1], "p": 0.7}, {"range_m": [1, 2], "p": 0.1}, {"range_m": [2, 3], "p": 0.1}]}}})");
   ASSERT_FALSE(params.ok());
-  EXPECT_EQ(params.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(params.status().code(), StatusCode::kParseError);
   EXPECT_THAT(params.status().message(),
               HasSubstr("params.json:2: objects.scale.buckets: bucket probabilities 0.7 + 0.1 + 0.1 sum to"));
   EXPECT_THAT(params.status().message(), HasSubstr(", not 1"));

@@ -54,7 +54,8 @@ class Catalog {
   Catalog& operator=(Catalog&&) noexcept;
   ~Catalog();
 
-  // Inserts or replaces the row of entry.key, durably (committed before returning).
+  // Inserts or replaces the row of entry.key, durably (committed and checkpointed into the
+  // file before returning, so that the WAL never holds a row the file lacks).
   Status Put(const CatalogEntry& entry);
   Result<std::optional<CatalogEntry>> Find(std::string_view key);
   // Every row, sorted by key.

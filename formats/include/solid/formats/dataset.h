@@ -26,7 +26,8 @@
 
 namespace solid {
 
-inline constexpr int kDatasetFormatVersion = 1;
+// Of the manifest, and the user_version of every shard, query shard and index.
+inline constexpr int kDatasetFormatVersion = 2;
 
 struct Manifest {
   int format_version = kDatasetFormatVersion;
@@ -55,13 +56,18 @@ struct Manifest {
 
   nlohmann::json ToJson() const;
   // Validates against schemas/manifest.schema.json; errors name the file and the key.
+  // kUnsupportedVersion for another format_version.
   static Result<Manifest> Parse(std::string_view text, std::string_view name);
 };
 
 // Why two manifests describe different datasets (seed, params, sizes...), or empty when
-// they describe the same one. Generator versions are compared: mixing versions in one
-// dataset would break its determinism.
+// they describe the same one: "seed 0x.. vs 0x..; params_hash .. vs .. (first difference
+// at /layout/objects/attempts)", or with labels "seed 0x.. in the shard, 0x.. in the
+// manifest". Generator versions are compared: mixing versions in one dataset would break
+// its determinism.
 std::string ManifestDifference(const Manifest& a, const Manifest& b);
+std::string ManifestDifference(const Manifest& a, const Manifest& b, std::string_view a_label,
+                               std::string_view b_label);
 
 struct DatasetPaths {
   explicit DatasetPaths(std::filesystem::path root) : root(std::move(root)) {}
@@ -93,6 +99,39 @@ struct ShardListing {
   std::vector<std::filesystem::path> unexpected;
 };
 Result<ShardListing> ListShards(const std::filesystem::path& root);
+
+// Provenance: every target and query shard records, in its checksummed shard_meta, the
+// manifest of the dataset it was rendered for ("manifest", its canonical JSON: format
+// version, generator, seed, sizes, render settings, params and their hash, catalog hash)
+// and its own number ("shard_index"). A shard belongs to a dataset when both agree with
+// the dataset's manifest and its file name.
+struct ShardProvenance {
+  Manifest manifest;
+  int64_t shard_index = -1;
+};
+Status WriteProvenance(ShardWriter& writer, const Manifest& manifest, int64_t shard_index);
+Status WriteProvenance(QueryShardWriter& writer, const Manifest& manifest, int64_t shard_index);
+// From a shard's Meta(); kCorrupt naming `file` when a key is missing or malformed.
+Result<ShardProvenance> ReadProvenance(const std::vector<std::pair<std::string, std::string>>& meta,
+                                       std::string_view file);
+// kCorrupt "<file>: provenance: <field> <value> in the shard, <value> in the manifest"
+// when the shard is not shard `shard_index` of the dataset `manifest` describes.
+Status CheckProvenance(const ShardProvenance& found, const Manifest& manifest, int64_t shard_index,
+                       std::string_view file);
+
+// Rebuilds manifest.json of a dataset that lost it from the provenance of its shards,
+// which must all agree (and each be named after its own shard_index). Shards whose
+// provenance cannot be read are listed, not used: `solid render --repair` re-renders them.
+struct AdoptReport {
+  Manifest manifest;
+  int64_t target_shards = 0, query_shards = 0;  // that agree, and were used
+  std::vector<Status> unreadable;                // shards whose provenance could not be read
+  // One line saying what was found (and one per shard left out), for the user.
+  std::string Summary(const std::filesystem::path& root) const;
+};
+// kAlreadyExists when manifest.json exists, kNotFound when no shard has a readable
+// provenance, kCorrupt naming two shards and the field when they disagree.
+Result<AdoptReport> AdoptManifest(const std::filesystem::path& root);
 
 // Read access to a dataset. Uses index.sqlite for lookups by model when it is present
 // and agrees with the shards; scans the shards otherwise. Not thread-safe.

@@ -32,7 +32,9 @@ struct ImageHeader {
 
 // Reads the header of encoded bytes (no pixel is decoded) and checks it against the
 // limits: kLimitExceeded naming the claimed size and the limits, kParseError when the
-// bytes are not an image of `format`.
+// bytes are not an image of `format`. Here and in DecodeImage, what libpng or OpenImageIO
+// print on stderr meanwhile ("libpng error: ...") is attached to the error, not printed;
+// such calls run one at a time, as stderr is the process's.
 Result<ImageHeader> ReadImageHeader(std::span<const uint8_t> bytes, ImageFormat format,
                                     const ImageLimits& limits = {});
 

@@ -18,7 +18,9 @@ namespace solid {
 struct IndexReport {
   int64_t shards = 0, query_shards = 0, images = 0, instances = 0, models = 0, query_views = 0;
   ProxyMetrics metrics;
-  std::vector<Status> skipped;  // shards that could not be read, with the reason; not indexed
+  // Shards not indexed, with the reason: unreadable, damaged (a checksum fails), not this
+  // dataset's (provenance, image ids outside the shard's range), or not a regular file.
+  std::vector<Status> skipped;
   // Target shards of the manifest with no published file (not rendered yet, or being
   // rendered), as inclusive ranges: an index made while renders run covers the complete
   // shards only.

@@ -10,7 +10,9 @@
 //
 // Readers treat the file as untrusted: read-only, SQLite's defensive mode, the
 // schema compared with the embedded DDL, and every value checked (types,
-// ranges, checksums) before it is returned. Objects are not thread-safe; use
+// ranges, checksums) before it is returned. Every row read is checked against
+// its row_xxh64 (all of its values), whatever the ChecksumPolicy, which only
+// decides whether blob bytes are hashed too. Objects are not thread-safe; use
 // one per thread.
 #pragma once
 
@@ -45,7 +47,8 @@ class ShardWriter {
   ShardWriter& operator=(ShardWriter&&) noexcept;
   ~ShardWriter();  // abandons an uncommitted shard: removes the temporary file
 
-  // Provenance and bookkeeping (params_hash, generator_version, stage timings...).
+  // Provenance (formats/dataset.h WriteProvenance) and bookkeeping (stage timings...).
+  // "content_xxh64" is the writer's own: Commit() sets it over every row.
   Status SetMeta(std::string_view key, std::string_view value);
   // Checksums are computed here. Instances must reference an image added before.
   Status AddImage(const ImageRecord& image);
@@ -108,6 +111,10 @@ class ShardReader {
 
   const std::filesystem::path& path() const;
   Result<std::vector<std::pair<std::string, std::string>>> Meta();
+  // Walks every row of every table: its row_xxh64, with kVerify its blob checksums, and
+  // content_xxh64 over all rows (so a row added or removed is found too). kCorrupt naming
+  // the first row that disagrees.
+  Status VerifyContent(ChecksumPolicy policy = ChecksumPolicy::kVerify);
   Result<ShardCounts> Counts();
 
   // Sizes and counts from aggregate queries (no blob is read). When `metrics` is
@@ -141,6 +148,8 @@ class QueryShardReader {
 
   const std::filesystem::path& path() const;
   Result<std::vector<std::pair<std::string, std::string>>> Meta();
+  // As ShardReader::VerifyContent.
+  Status VerifyContent(ChecksumPolicy policy = ChecksumPolicy::kVerify);
   Result<std::vector<QueryModelRecord>> Models();
   Result<std::vector<QueryViewRecord>> ViewsOfModel(std::string_view model_key,
                                                     ChecksumPolicy policy = ChecksumPolicy::kVerify);

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "solid/formats/dataset.h"
 #include "solid/formats/progress.h"
 
 namespace solid {
@@ -35,7 +36,9 @@ struct ValidateOptions {
 };
 
 // Checks: the manifest against its schema; every shard's schema version, SQLite
-// integrity, blob checksums and value ranges; that image ids belong to their shard;
+// integrity, blob and row checksums (every stored value), content checksum (every row)
+// and value ranges; that each shard's provenance is the manifest's and names its file's
+// shard; that image ids belong to their shard;
 // that every RLE decodes with runs summing to h*w; that stored boxes, areas,
 // occlusion and scale class equal those of the masks; that the full mask contains the
 // visible one; that images decode to their stored size; query view counts; that
@@ -43,7 +46,13 @@ struct ValidateOptions {
 // index.sqlite agrees with the shards.
 ValidationReport ValidateDataset(const std::filesystem::path& root, const ValidateOptions& options = {});
 
-// The same checks for a single target or query shard file, without dataset context.
+// The same checks for a single target or query shard file, without dataset context: its
+// rows against its own provenance (and the shard number its file name gives).
 ValidationReport ValidateShardFile(const std::filesystem::path& path, const ValidateOptions& options = {});
+
+// What ValidateDataset checks of target (or, with `query`, query) shard `shard_index` at
+// `path`: ValidateShardFile's checks, and that its provenance is the manifest's.
+ValidationReport ValidateShardOfDataset(const std::filesystem::path& path, const Manifest& manifest, bool query,
+                                        int64_t shard_index, const ValidateOptions& options = {});
 
 }  // namespace solid

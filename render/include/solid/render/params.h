@@ -111,7 +111,8 @@ struct LayoutParams {
 
 // Parses a params document (already parsed JSON; `text` is the source text, used
 // only to turn JSON Pointers into line numbers in messages, and may be empty).
-// `source` names the document in messages ("params.json", "preset occlusion").
+// `source` names the document in messages ("params.json", "preset occlusion"). A document
+// that breaks the schema or a rule is bad input: kParseError, one line per problem.
 Result<LayoutParams> ParseParams(const nlohmann::json& document, std::string_view text, std::string_view source);
 
 // Reads and parses a params file (untrusted: size and depth limits apply).

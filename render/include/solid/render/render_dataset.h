@@ -46,9 +46,16 @@ struct RenderOptions {
   QueryViewOptions query_views;
   int64_t query_shard_models = 64;
   bool queries = true;  // render the query shards the rendered targets need
-  // Re-render target and query shards that fail ValidateShardFile; otherwise a present
-  // shard is trusted and skipped.
+  // A present shard is skipped when its provenance is this dataset's shard (and its image
+  // ids lie in its range); one that is not (another dataset's, another shard's, not a
+  // regular file, unreadable) stops the render with kCorrupt naming it and the field. With
+  // repair, every present target and query shard is validated (ValidateShardOfDataset) and
+  // those that fail are rendered anew in place; the others keep their bytes.
   bool repair = false;
+  // When options.out holds shards but no manifest.json: rebuild the manifest from their
+  // provenance (formats/dataset.h AdoptManifest; on_note says what was found), then go on
+  // as for a dataset with that manifest. Without it such a directory is refused (kNotFound).
+  bool adopt = false;
   uint64_t texture_cache_bytes = uint64_t{1} << 30;  // cap of decoded textures (shade.h TextureCache)
   ProgressCallback progress;  // in images
   // Stops the render (solid/formats/cancel.h). The shard being written is finished when its
@@ -70,6 +77,8 @@ struct StageTimes {
 
 struct RenderReport {
   int64_t shards_requested = 0, shards_rendered = 0, shards_present = 0, shards_repaired = 0;
+  int64_t query_shards_repaired = 0;
+  bool adopted = false;  // manifest.json was rebuilt from the shards' provenance
   int64_t images = 0, instances = 0;
   // Images whose every restart was unusable (GenerateLayout): absent from their shard.
   int64_t failed_images = 0;
