@@ -347,8 +347,8 @@ Command AddOptimize(CLI::App& app) {
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (a missed confirmation starts another)")
       ->capture_default_str()->check(CLI::Range(1, 10));
-  cmd->add_option("--seed", o.seed, "Layout seed")->capture_default_str();
-  cmd->add_option("--jobs,-j", o.jobs, "Layouts in parallel (default: all cores)");
+  AddSeedOption(cmd, &o.seed, "Layout seed");
+  AddJobsOption(cmd, &o.jobs, "Layouts in parallel (default: all cores)");
   cmd->add_flag("--json", f->json, "Print the summary as JSON");
   cmd->add_flag("--refit", f->refit,
                 "Fit even when --out was fitted by an earlier run for the same assets, start, targets and options "
@@ -369,8 +369,8 @@ Command AddMetrics(CLI::App& app) {
   cmd->add_option("--assets", f->assets, "Models for --compare");
   cmd->add_option("--rooms", f->rooms, "Rooms for --compare (default: --assets)");
   cmd->add_option("--layouts,-n", f->layouts, "Layouts sampled for --compare")->capture_default_str();
-  cmd->add_option("--seed", f->seed, "Seed of the layouts sampled for --compare")->capture_default_str();
-  cmd->add_option("--jobs,-j", f->jobs, "Layouts in parallel for --compare (default: all cores)");
+  AddSeedOption(cmd, &f->seed, "Seed of the layouts sampled for --compare");
+  AddJobsOption(cmd, &f->jobs, "Layouts in parallel for --compare (default: all cores)");
   cmd->add_flag("--json", f->json, "Print JSON");
   return [f]() -> int {
     if (!f->compare.empty() && f->assets.empty()) {

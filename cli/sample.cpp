@@ -118,9 +118,8 @@ Command AddSample(CLI::App& app) {
   AddAssetCacheFlag(cmd, &f->asset_cache_mb);
   cmd->add_option("--layouts,-n", f->layouts, "Number of layouts")->capture_default_str()->check(CLI::Range(1, 100000000));
   cmd->add_option("--first", f->first, "Index of the first layout")->capture_default_str();
-  cmd->add_option("--seed", f->seed, "Dataset seed: layout i depends only on (params, assets, seed, i)")
-      ->capture_default_str();
-  cmd->add_option("--jobs,-j", f->jobs, "Layouts in parallel (default: all cores)");
+  AddSeedOption(cmd, &f->seed, "Dataset seed: layout i depends only on (params, assets, seed, i)");
+  AddJobsOption(cmd, &f->jobs, "Layouts in parallel (default: all cores)");
   cmd->add_flag("--json", f->json, "Print the report as JSON (with the resolved params)");
   cmd->add_option("--export-scene", f->export_index, "Write layout I as a glTF scene to --out instead of sampling")
       ->check(CLI::NonNegativeNumber);
