@@ -303,7 +303,9 @@ TEST(ProceduralShape, DefaultMixesEveryFamilyAndLeansLikeShapeNet) {
   std::map<std::string, int> counts;
   for (int index = 0; index < 64; ++index) {
     const std::string family(ShapeFamilyName(FamilyOfIndex(index, {})));
-    if (index < kShapeFamilyCount) EXPECT_EQ(family, ShapeFamilyName(Family(index)));
+    if (index < kShapeFamilyCount) {
+      EXPECT_EQ(family, ShapeFamilyName(Family(index)));
+    }
     ++counts[family];
   }
   EXPECT_EQ(counts.size(), static_cast<size_t>(kShapeFamilyCount));

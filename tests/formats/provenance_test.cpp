@@ -232,7 +232,9 @@ TEST_F(Provenance, F8_AnEditedManifestSeedIsSaidToComeFromTheManifest) {
                                                                    "0x0000000000000002 in the manifest"))
       << Problems(report);
   for (const ValidationProblem& p : report.problems) {
-    if (p.location.find("index_meta") != std::string::npos) EXPECT_EQ(p.message.find("from the shards"), std::string::npos);
+    if (p.location.find("index_meta") != std::string::npos) {
+      EXPECT_EQ(p.message.find("from the shards"), std::string::npos);
+    }
   }
 }
 
