@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "formats/test_util.h"
 #include "render/test_assets.h"
@@ -39,6 +41,24 @@ Result<render::RenderReport> Render(const render::LayoutParams& params, const st
   return render::RenderDataset(*sampler, options);
 }
 
+// A fit at the small output: masks at the output resolution (so no "output" evaluation),
+// 40 layouts, 200 fresh ones, two rounds, bounded by evaluations.
+OptimizeOptions SmallFit(const render::LayoutParams& start, std::vector<Target> targets) {
+  OptimizeOptions o;
+  o.start = start;
+  o.space = SearchSpace::FitKnobs(start);
+  o.targets = std::move(targets);
+  o.layouts = 40;
+  o.eval_width = start.width;
+  o.eval_height = start.height;
+  o.confirm_layouts = 200;
+  o.max_evaluations = 60;
+  o.max_seconds = 600;  // a loaded sanitizer run must not cut it short
+  o.max_rounds = 2;
+  o.jobs = 2;
+  return o;
+}
+
 // A dataset is image i = layout i of its seed, through the same mask pass: its stored
 // masks give exactly the metrics the optimizer's evaluation of those layouts measures.
 TEST(FittedLoop, RenderedDatasetHasExactlyTheMetricsOfItsLayoutsEvaluated) {
@@ -60,19 +80,8 @@ TEST(FittedLoop, RenderedDatasetHasExactlyTheMetricsOfItsLayoutsEvaluated) {
 // The main job's sequence: optimize to a row, render the fitted params, and the dataset's
 // metrics agree with the optimizer's confirmation (the default tolerance plus the CIs).
 TEST(FittedLoop, FittedParamsReachTheRenderAndItsMetricsAgreeWithTheConfirmation) {
-  OptimizeOptions o;
-  o.start = SmallOutput("more-objects");
-  o.space = SearchSpace::FitKnobs(o.start);
-  o.targets = TableRowTargets("more-objects").value();
+  OptimizeOptions o = SmallFit(SmallOutput("more-objects"), TableRowTargets("more-objects").value());
   for (Target& t : o.targets) t.tolerance *= 4;
-  o.layouts = 40;
-  o.eval_width = 80;
-  o.eval_height = 60;
-  o.confirm_layouts = 200;
-  o.max_evaluations = 60;
-  o.max_seconds = 600;  // bounded by evaluations: a loaded sanitizer run must not cut it short
-  o.max_rounds = 2;
-  o.jobs = 2;
   Result<OptimizeReport> fit = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(fit.status());
   EXPECT_TRUE(fit->all_met) << fit->ToJson().dump(1);
@@ -116,21 +125,11 @@ TEST(FittedLoop, TargetsMatchedFromTheDatasetsCocoExportAreItsMetricsAndAreReach
   EXPECT_DOUBLE_EQ(match->medium.mean, own->medium.mean);
   EXPECT_DOUBLE_EQ(match->large.mean, own->large.mean);
 
-  OptimizeOptions o;
-  o.start = params;
-  o.start.attempts = {12, 14};  // a start far below the dataset's count
-  o.space = SearchSpace::FitKnobs(o.start);
-  o.targets = match->targets;
+  render::LayoutParams start = params;
+  start.attempts = {12, 14};  // a start far below the dataset's count
+  OptimizeOptions o = SmallFit(start, match->targets);
   // The dataset's own sampling error (96 images) comes on top of the acceptance.
   for (Target& t : o.targets) t.tolerance = 2 * DefaultTolerance(t.metric) + MetricOf(*own, t.metric).ci95;
-  o.layouts = 40;
-  o.eval_width = 80;
-  o.eval_height = 60;
-  o.confirm_layouts = 200;
-  o.max_evaluations = 60;
-  o.max_seconds = 600;
-  o.max_rounds = 2;
-  o.jobs = 2;
   Result<OptimizeReport> fit = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(fit.status());
   ASSERT_FALSE(fit->trace.empty());
