@@ -168,7 +168,10 @@ TEST(Provenance, F8_LibraryMessagesOfATruncatedTextureGoToItsAssetsWarning) {
   const std::vector<uint8_t> png = EncodeImage(pixels, ImageFormat::kPng, 90).value();
   Write(model / "images" / "cut.png", std::string(png.begin(), png.begin() + 20));  // IHDR cut short
 
-  const auto run = RunCommand(Solid("convert shapenet " + ShellQuote(root.string()) + " " + ShellQuote(out.string()) +
+  // OpenImageIO 2.4 keeps the failed open's error string (docs/limits.md, "what is not
+  // guarded"): under LeakSanitizer that known leak would turn the exit code into 1.
+  const auto run = RunCommand("ASAN_OPTIONS=\"${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0\" " +
+                              Solid("convert shapenet " + ShellQuote(root.string()) + " " + ShellQuote(out.string()) +
                                     " --jobs 1"));
   EXPECT_EQ(run.exit_status, 0) << run.output;
   std::istringstream lines(run.output);
