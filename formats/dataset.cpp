@@ -116,11 +116,6 @@ Result<Manifest> Manifest::Parse(std::string_view text, std::string_view name) {
   return m;
 }
 
-double ScaleClassAreaScaleOfShard(const std::filesystem::path& shard) {
-  const Result<Manifest> manifest = ReadManifest(std::filesystem::absolute(shard).parent_path().parent_path());
-  return manifest.ok() ? manifest->ScaleClassAreaScale() : 1.0;
-}
-
 std::string ManifestDifference(const Manifest& a, const Manifest& b) { return ManifestDifference(a, b, "", ""); }
 
 std::string ManifestDifference(const Manifest& a, const Manifest& b, std::string_view a_label,

@@ -22,6 +22,16 @@ int64_t FileSize(const fs::path& p) {
   return ec ? 0 : static_cast<int64_t>(size);
 }
 
+// A shard read alone is classed as the manifest in its provenance counts (1 without one).
+double ShardAreaScale(const fs::path& path) {
+  Result<ShardReader> reader = ShardReader::Open(path);
+  if (!reader.ok()) return 1;
+  Result<std::vector<std::pair<std::string, std::string>>> meta = reader->Meta();
+  if (!meta.ok()) return 1;
+  const Result<ShardProvenance> provenance = ReadProvenance(*meta, path.string());
+  return provenance.ok() ? provenance->manifest.ScaleClassAreaScale() : 1.0;
+}
+
 Result<json> TargetShardSummary(const fs::path& path, MetricsAccumulator* metrics) {
   SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
   SOLID_ASSIGN_OR_RETURN(ShardSummary s, reader.Summarize(metrics));
@@ -125,7 +135,7 @@ Result<json> Inspect(const fs::path& path) {
       q["kind"] = "query_shard";
       return q;
     }
-    MetricsAccumulator metrics(ScaleClassAreaScaleOfShard(path));
+    MetricsAccumulator metrics(ShardAreaScale(path));
     SOLID_ASSIGN_OR_RETURN(json t, TargetShardSummary(path, &metrics));
     t["kind"] = "target_shard";
     t["metrics"] = metrics.Finish().ToJson();

@@ -84,10 +84,6 @@ struct DatasetPaths {
 Status CreateDataset(const std::filesystem::path& root, const Manifest& manifest);
 Result<Manifest> ReadManifest(const std::filesystem::path& root);
 
-// The ScaleClassAreaScale of the dataset a target shard file lies in (its manifest two
-// folders up), or 1 when it lies in none: what a shard read alone is classed with.
-double ScaleClassAreaScaleOfShard(const std::filesystem::path& shard);
-
 struct ShardFile {
   int64_t index = 0;
   std::filesystem::path path;
