@@ -23,7 +23,7 @@
 #include <random>
 #include <string>
 
-#include "solid/optimize/coco_targets.h"
+#include "solid/optimizer/coco_targets.h"
 
 namespace fs = std::filesystem;
 
@@ -46,7 +46,7 @@ double ProcStatusMb(std::string_view field) {
   return -1;
 }
 
-// The process's peak RSS (ru_maxrss) is mostly the libraries solid::optimize links, mapped
+// The process's peak RSS (ru_maxrss) is mostly the libraries solid::optimizer links, mapped
 // at start; resetting the kernel's high-water mark (clear_refs 5, Linux 4.0) lets the
 // match's own peak be read above the RSS it started from.
 bool ResetPeakRss() { return static_cast<bool>(std::ofstream("/proc/self/clear_refs") << "5"); }
@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
   app.add_flag("--keep", keep, "Keep the file afterwards");
   app.add_option("--seed", seed, "Generator seed")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
-  // The libraries solid::optimize links (the renderer's among them) make up most of this.
+  // The libraries solid::optimizer links (the renderer's among them) make up most of this.
   const double rss_at_start = PeakRssMb();
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -228,7 +228,7 @@ int main(int argc, char** argv) {
 
   const auto t1 = std::chrono::steady_clock::now();
   const double cpu1 = CpuSeconds();
-  auto match = solid::optimize::TargetsFromCoco(out, {});
+  auto match = solid::optimizer::TargetsFromCoco(out, {});
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   const double cpu_seconds = CpuSeconds() - cpu1;
   const double rss_after = PeakRssMb();

@@ -20,7 +20,7 @@
 #include <tuple>
 #include <utility>
 
-#include "solid/optimize/optimize.h"
+#include "solid/optimizer/optimize.h"
 
 // User and system CPU seconds of the process so far: with other work on the machine, the
 // fit's CPU time over the cores it may use bounds what its wall time would be alone.
@@ -32,10 +32,10 @@ double CpuSeconds() {
 }
 
 int main(int argc, char** argv) {
-  CLI::App app{"Fit every Table-1 row with solid::optimize and report evaluations, time and metrics."};
+  CLI::App app{"Fit every Table-1 row with solid::optimizer and report evaluations, time and metrics."};
   std::string assets, rooms;
   std::vector<std::string> rows = solid::render::PresetNames();
-  solid::optimize::OptimizeOptions defaults;
+  solid::optimizer::OptimizeOptions defaults;
   defaults.max_seconds = 60;
   int64_t verify_layouts = 2000;
   app.add_option("--assets", assets, "Assets directory with the models")->required();
@@ -69,9 +69,9 @@ int main(int argc, char** argv) {
              verify_layouts);
   int missed = 0;
   for (const std::string& row : rows) {
-    solid::optimize::OptimizeOptions o = defaults;
+    solid::optimizer::OptimizeOptions o = defaults;
     auto start = solid::render::LoadPreset(start_preset.empty() ? row : start_preset);
-    auto targets = solid::optimize::TableRowTargets(row);
+    auto targets = solid::optimizer::TableRowTargets(row);
     if (!start.ok() || !targets.ok()) {
       fmt::print(stderr, "{}: {}\n", row, (start.ok() ? targets.status() : start.status()).ToString());
       return 1;
@@ -81,27 +81,27 @@ int main(int argc, char** argv) {
       std::tie(o.start.scale_width, o.start.scale_height) = solid::render::ScaleClassResolution(o.start);
       std::tie(o.start.width, o.start.height) = resolution;
     }
-    o.space = solid::optimize::SearchSpace::FitKnobs(o.start);
+    o.space = solid::optimizer::SearchSpace::FitKnobs(o.start);
     o.targets = *targets;
     const double cpu_before = CpuSeconds();
-    auto r = solid::optimize::Optimize(*library, o);
+    auto r = solid::optimizer::Optimize(*library, o);
     const double fit_cpu = CpuSeconds() - cpu_before;
     if (!r.ok()) {
       fmt::print(stderr, "{}: {}\n", row, r.status().ToString());
       return 1;
     }
     // After the kPilotFirst range pilots use: disjoint from the search and its confirmation.
-    const solid::optimize::EvaluationOptions verify{o.seed, solid::optimize::kPilotFirst + (int64_t{1} << 39),
+    const solid::optimizer::EvaluationOptions verify{o.seed, solid::optimizer::kPilotFirst + (int64_t{1} << 39),
                                                     verify_layouts, 0, 0, o.jobs};
-    auto v = solid::optimize::Evaluate(r->best, *library, verify);
+    auto v = solid::optimizer::Evaluate(r->best, *library, verify);
     if (!v.ok()) {
       fmt::print(stderr, "{}: {}\n", row, v.status().ToString());
       return 1;
     }
     std::string cells;
     bool met = true;
-    for (const auto& c : solid::optimize::CompareWithTargets(v->metrics, o.targets)) {
-      const double k = c.metric == solid::optimize::Metric::kObjectsPerImage ? 1 : 100;
+    for (const auto& c : solid::optimizer::CompareWithTargets(v->metrics, o.targets)) {
+      const double k = c.metric == solid::optimizer::Metric::kObjectsPerImage ? 1 : 100;
       const bool within = std::abs(c.measured.mean - c.reference.mean) <= c.tolerance;  // the acceptance, no CI
       met = met && within;
       cells += fmt::format(" {:.2f} / {:.2f}{} |", k * c.measured.mean, k * c.reference.mean, within ? "" : " (miss)");

@@ -9,14 +9,14 @@
 #include "signals.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/files.h"
-#include "solid/optimize/coco_targets.h"
-#include "solid/optimize/optimize.h"
+#include "solid/optimizer/coco_targets.h"
+#include "solid/optimizer/optimize.h"
 #include "solid/render/sample.h"
 
 namespace solid::cli {
 namespace {
 
-using optimize::Metric;
+using optimizer::Metric;
 
 struct OptimizeFlags {
   std::string preset, params, space, assets, rooms, out, trace, target_row, eval_resolution, match_coco;
@@ -24,10 +24,10 @@ struct OptimizeFlags {
   std::vector<std::string> free, fix;
   std::optional<double> count, occlusion;
   std::vector<double> scale;
-  double tol_count = optimize::DefaultTolerance(Metric::kObjectsPerImage);
-  double tol_occlusion = optimize::DefaultTolerance(Metric::kOcclusion);
-  double tol_scale = optimize::DefaultTolerance(Metric::kSmall);
-  optimize::OptimizeOptions options;
+  double tol_count = optimizer::DefaultTolerance(Metric::kObjectsPerImage);
+  double tol_occlusion = optimizer::DefaultTolerance(Metric::kOcclusion);
+  double tol_scale = optimizer::DefaultTolerance(Metric::kSmall);
+  optimizer::OptimizeOptions options;
   uint64_t asset_cache_mb = 2048;
   bool json = false;
   bool refit = false;
@@ -39,31 +39,31 @@ std::string Percent(Metric m, double v) {
 
 // --target-row first, then --match-coco's count and shares, then the single targets
 // override or add. `start` gives the resolution the COCO areas are classed at.
-Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f, const render::LayoutParams& start) {
-  std::vector<optimize::Target> targets;
+Result<std::vector<optimizer::Target>> ResolveTargets(const OptimizeFlags& f, const render::LayoutParams& start) {
+  std::vector<optimizer::Target> targets;
   if (!f.target_row.empty()) {
-    SOLID_ASSIGN_OR_RETURN(targets, optimize::TableRowTargets(f.target_row));
+    SOLID_ASSIGN_OR_RETURN(targets, optimizer::TableRowTargets(f.target_row));
   }
   auto set = [&](Metric m, double value) {
-    std::erase_if(targets, [&](const optimize::Target& t) { return t.metric == m; });
+    std::erase_if(targets, [&](const optimizer::Target& t) { return t.metric == m; });
     targets.push_back({m, value, 0});
   };
   if (!f.match_coco.empty()) {
-    optimize::CocoMatchOptions coco;
+    optimizer::CocoMatchOptions coco;
     std::tie(coco.width, coco.height) = render::ScaleClassResolution(start);
     coco.skip_empty_images = f.skip_empty_images;
-    SOLID_ASSIGN_OR_RETURN(const optimize::CocoMatch match, optimize::TargetsFromCoco(f.match_coco, coco));
+    SOLID_ASSIGN_OR_RETURN(const optimizer::CocoMatch match, optimizer::TargetsFromCoco(f.match_coco, coco));
     fmt::print(stderr, "solid: targets from {}: {} images ({} counted, {} without annotations{}), {} annotations "
                        "({} crowd left out), areas classed at {}x{}\n",
                f.match_coco, match.images, match.images_counted, match.empty_images,
                f.skip_empty_images ? ", skipped" : ", counted as 0 objects", match.annotations, match.crowd_skipped,
                match.width, match.height);
-    for (const optimize::Target& t : match.targets) {
+    for (const optimizer::Target& t : match.targets) {
       const Estimate e = t.metric == Metric::kObjectsPerImage ? match.objects_per_image
                          : t.metric == Metric::kSmall         ? match.small
                          : t.metric == Metric::kMedium        ? match.medium
                                                               : match.large;
-      fmt::print(stderr, "solid:   {:<18} {:>8} +- {} (n = {})\n", optimize::MetricName(t.metric),
+      fmt::print(stderr, "solid:   {:<18} {:>8} +- {} (n = {})\n", optimizer::MetricName(t.metric),
                  Percent(t.metric, t.value), Percent(t.metric, e.ci95),
                  t.metric == Metric::kObjectsPerImage ? match.images_counted : match.annotations);
       set(t.metric, t.value);
@@ -81,7 +81,7 @@ Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f, con
     set(Metric::kMedium, f.scale[1]);
     set(Metric::kLarge, f.scale[2]);
   }
-  for (optimize::Target& t : targets) {
+  for (optimizer::Target& t : targets) {
     t.tolerance = t.metric == Metric::kObjectsPerImage ? f.tol_count
                   : t.metric == Metric::kOcclusion     ? f.tol_occlusion
                                                        : f.tol_scale;
@@ -92,7 +92,7 @@ Result<std::vector<optimize::Target>> ResolveTargets(const OptimizeFlags& f, con
   return targets;
 }
 
-void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
+void PrintReport(const optimizer::OptimizeReport& r, const std::string& out) {
   fmt::print("{} after {} evaluations, {} round(s), {:.1f} s: {}\n",
              r.cancelled ? "STOPPED" : r.all_met ? "MET" : "NOT MET", r.evaluations, r.rounds, r.seconds,
              r.stop_reason);
@@ -105,14 +105,14 @@ void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
                r.eval_width, r.eval_height, r.confirmation.images, r.best.width, r.best.height);
   }
   fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", "metric", "target", "tol", "achieved", r.pilot ? "  pilot (output res)" : "");
-  for (const optimize::TargetResult& t : r.results) {
+  for (const optimizer::TargetResult& t : r.results) {
     const Metric m = t.target.metric;
     std::string pilot;
     if (t.pilot) {
       pilot = fmt::format("  {} +- {} {}", Percent(m, t.pilot->mean), Percent(m, t.pilot->ci95),
                           t.pilot_agrees ? "agrees" : "DISAGREES");
     }
-    fmt::print("  {:<18} {:>9} {:>8} {:>18} {}{}\n", optimize::MetricName(m), Percent(m, t.target.value),
+    fmt::print("  {:<18} {:>9} {:>8} {:>18} {}{}\n", optimizer::MetricName(m), Percent(m, t.target.value),
                Percent(m, t.target.tolerance),
                fmt::format("{} +- {}", Percent(m, t.predicted.mean), Percent(m, t.predicted.ci95)),
                t.met ? "ok" : "MISSED", pilot);
@@ -135,10 +135,10 @@ void PrintReport(const optimize::OptimizeReport& r, const std::string& out) {
 }
 
 int RunOptimize(OptimizeFlags& f) {
-  optimize::OptimizeOptions& o = f.options;
-  optimize::SearchSpace space;
+  optimizer::OptimizeOptions& o = f.options;
+  optimizer::SearchSpace space;
   if (!f.space.empty()) {
-    SOLID_ASSIGN_OR_RETURN_EXIT(space, optimize::SearchSpace::Load(f.space));
+    SOLID_ASSIGN_OR_RETURN_EXIT(space, optimizer::SearchSpace::Load(f.space));
   }
   Result<render::LayoutParams> start = !f.params.empty()                ? render::LoadParamsFile(f.params)
                                        : !f.preset.empty()              ? render::LoadPreset(f.preset)
@@ -147,7 +147,7 @@ int RunOptimize(OptimizeFlags& f) {
                                                                           : InvalidArgumentError("give --preset, --params, or a --space with a start");
   if (!start.ok()) return Fail(start.status());
   o.start = *start;
-  if (f.space.empty()) space = optimize::SearchSpace::FitKnobs(o.start);
+  if (f.space.empty()) space = optimizer::SearchSpace::FitKnobs(o.start);
   for (const std::string& k : f.free) {
     if (Status s = space.Free(k, o.start); !s.ok()) return Fail(s);
   }
@@ -163,16 +163,16 @@ int RunOptimize(OptimizeFlags& f) {
   SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
                               render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms,
                                                          AssetLibraryOptionsFor(f.asset_cache_mb)));
-  o.on_evaluation = [](const optimize::TraceRow& t) {
+  o.on_evaluation = [](const optimizer::TraceRow& t) {
     const ProxyMetrics& m = t.metrics;
     fmt::print(stderr, "eval {:>4} r{} {:<6} objective {:>9.3f}  count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%  {:6.1f} s\n",
                t.evaluation, t.round, t.phase, t.objective, m.objects_per_image.mean, 100 * m.occlusion.mean,
                100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, t.seconds);
   };
-  const optimize::FitFiles files{f.out, f.trace};
-  const uint64_t fingerprint = optimize::FitFingerprint(o, library->catalog_hash());
+  const optimizer::FitFiles files{f.out, f.trace};
+  const uint64_t fingerprint = optimizer::FitFingerprint(o, library->catalog_hash());
   if (!f.refit) {
-    if (const std::optional<nlohmann::json> fit = optimize::ReusableFit(files, fingerprint)) {
+    if (const std::optional<nlohmann::json> fit = optimizer::ReusableFit(files, fingerprint)) {
       const bool met = fit->value("all_met", false);
       if (f.json) {
         std::cout << fit->dump(2) << "\n";
@@ -181,7 +181,7 @@ int RunOptimize(OptimizeFlags& f) {
                    "{:.1f} s); nothing to do (--refit fits again)\n",
                    f.out, met ? "MET" : "NOT MET", fit->value("evaluations", 0), fit->value("seconds", 0.0));
         for (const nlohmann::json& t : fit->value("targets", nlohmann::json::array())) {
-          const Metric m = optimize::MetricByName(t.value("metric", "")).value_or(Metric::kObjectsPerImage);
+          const Metric m = optimizer::MetricByName(t.value("metric", "")).value_or(Metric::kObjectsPerImage);
           fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", t.value("metric", ""), Percent(m, t.value("target", 0.0)),
                      Percent(m, t.value("tolerance", 0.0)),
                      fmt::format("{} +- {}", Percent(m, t["achieved"].value("mean", 0.0)),
@@ -193,19 +193,19 @@ int RunOptimize(OptimizeFlags& f) {
     }
   }
   o.cancel = InstallStopHandlers();
-  Result<optimize::OptimizeReport> optimized = optimize::Optimize(library, o);
+  Result<optimizer::OptimizeReport> optimized = optimizer::Optimize(library, o);
   if (optimized.status().code() == StatusCode::kCancelled) {
     fmt::print(stderr, "solid: {} ({}); nothing written\n", optimized.status().message(), StopSignalName());
     return StopExitCode();
   }
-  SOLID_ASSIGN_OR_RETURN_EXIT(optimize::OptimizeReport report, std::move(optimized));
+  SOLID_ASSIGN_OR_RETURN_EXIT(optimizer::OptimizeReport report, std::move(optimized));
   const std::string comment = report.cancelled
                                   ? fmt::format("solid optimize: stopped by {} after {} evaluations; the best point so "
                                                 "far, not confirmed on fresh layouts",
                                                 StopSignalName(), report.evaluations)
                                   : fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
                                                 report.all_met ? "met" : "NOT met");
-  if (Status s = optimize::WriteFit(report, files, fingerprint, comment); !s.ok()) return Fail(s);
+  if (Status s = optimizer::WriteFit(report, files, fingerprint, comment); !s.ok()) return Fail(s);
   if (f.json) {
     std::cout << report.ToJson().dump(2) << "\n";
   } else {
@@ -231,15 +231,15 @@ struct MetricsFlags {
 };
 
 int RunMetrics(const MetricsFlags& f) {
-  SOLID_ASSIGN_OR_RETURN_EXIT(ProxyMetrics measured, optimize::DatasetMetrics(f.dataset));
+  SOLID_ASSIGN_OR_RETURN_EXIT(ProxyMetrics measured, optimizer::DatasetMetrics(f.dataset));
   SOLID_ASSIGN_OR_RETURN_EXIT(const Manifest manifest, ReadManifest(f.dataset));
   const std::string scale_classes =
       fmt::format("{}x{}", manifest.ScaleClassResolution().first, manifest.ScaleClassResolution().second);
-  std::vector<optimize::Comparison> comparisons;
+  std::vector<optimizer::Comparison> comparisons;
   std::string against;
   if (!f.target_row.empty()) {
-    SOLID_ASSIGN_OR_RETURN_EXIT(std::vector<optimize::Target> targets, optimize::TableRowTargets(f.target_row));
-    comparisons = optimize::CompareWithTargets(measured, targets);
+    SOLID_ASSIGN_OR_RETURN_EXIT(std::vector<optimizer::Target> targets, optimizer::TableRowTargets(f.target_row));
+    comparisons = optimizer::CompareWithTargets(measured, targets);
     against = "Table-1 row " + f.target_row;
   } else if (!f.compare.empty()) {
     SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, render::LoadParamsFile(f.compare));
@@ -249,23 +249,23 @@ int RunMetrics(const MetricsFlags& f) {
                                 render::LayoutSampler::Create(params, library));
     render::SampleOptions options;
     options.seed = f.seed;
-    options.first = optimize::kPilotFirst;
+    options.first = optimizer::kPilotFirst;
     options.layouts = f.layouts;
     options.jobs = f.jobs;
     SOLID_ASSIGN_OR_RETURN_EXIT(render::SampleReport predicted, render::RunSample(*sampler, options));
-    comparisons = optimize::CompareWithPrediction(measured, predicted.metrics);
+    comparisons = optimizer::CompareWithPrediction(measured, predicted.metrics);
     against = fmt::format("{} sampled ({} layouts at {}x{})", f.compare, f.layouts, params.width, params.height);
   }
   bool agree = true;
-  for (const optimize::Comparison& c : comparisons) agree = agree && c.agrees;
+  for (const optimizer::Comparison& c : comparisons) agree = agree && c.agrees;
   if (f.json) {
     nlohmann::json j = {{"dataset", f.dataset},
                         {"metrics", measured.ToJson()},
                         {"scale_classes_at", {manifest.ScaleClassResolution().first, manifest.ScaleClassResolution().second}}};
     if (!comparisons.empty()) {
       nlohmann::json rows = nlohmann::json::array();
-      for (const optimize::Comparison& c : comparisons) {
-        rows.push_back({{"metric", optimize::MetricName(c.metric)},
+      for (const optimizer::Comparison& c : comparisons) {
+        rows.push_back({{"metric", optimizer::MetricName(c.metric)},
                         {"measured", {{"mean", c.measured.mean}, {"ci95", c.measured.ci95}}},
                         {"reference", {{"mean", c.reference.mean}, {"ci95", c.reference.ci95}}},
                         {"tolerance", c.tolerance},
@@ -280,15 +280,15 @@ int RunMetrics(const MetricsFlags& f) {
     fmt::print("{}: {} images, {} visible instances (95% CI), scale classes counted at {}\n", f.dataset,
                measured.images, measured.visible_instances, scale_classes);
     if (!comparisons.empty()) fmt::print("compared with {}\n", against);
-    for (const optimize::Comparison& c : optimize::CompareWithPrediction(measured, measured)) {
+    for (const optimizer::Comparison& c : optimizer::CompareWithPrediction(measured, measured)) {
       const Metric m = c.metric;
       std::string ref;
-      for (const optimize::Comparison& k : comparisons) {
+      for (const optimizer::Comparison& k : comparisons) {
         if (k.metric != m) continue;
         ref = fmt::format("   vs {} +- {} (tol {}) {}", Percent(m, k.reference.mean), Percent(m, k.reference.ci95),
                           Percent(m, k.tolerance), k.agrees ? "ok" : "DIFFERS");
       }
-      fmt::print("  {:<18} {:>8} +- {:<7}{}\n", optimize::MetricName(m), Percent(m, c.measured.mean),
+      fmt::print("  {:<18} {:>8} +- {:<7}{}\n", optimizer::MetricName(m), Percent(m, c.measured.mean),
                  Percent(m, c.measured.ci95), ref);
     }
   }
@@ -303,7 +303,7 @@ Command AddOptimize(CLI::App& app) {
       "Search layout knobs with NLopt until the proxy metrics of sampled layouts (mask pass only) hit targets; "
       "write the params file.");
   auto f = std::make_shared<OptimizeFlags>();
-  optimize::OptimizeOptions& o = f->options;
+  optimizer::OptimizeOptions& o = f->options;
   auto* preset = cmd->add_option("--preset", f->preset, "Start from this Table-1 preset");
   auto* params = cmd->add_option("--params", f->params, "Start from this params file");
   preset->excludes(params);

@@ -19,5 +19,5 @@ find_package(draco 1.5 CONFIG REQUIRED)
 find_package(TinyGLTF 2.7 CONFIG REQUIRED)
 # solid::render
 find_package(embree 3.13 CONFIG REQUIRED)
-# solid::optimize
+# solid::optimizer
 find_package(NLopt 2.7 CONFIG REQUIRED)

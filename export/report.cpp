@@ -14,14 +14,14 @@
 #include "solid/formats/files.h"
 #include "solid/formats/image_codec.h"
 #include "solid/formats/metrics.h"
-#include "solid/optimize/optimize.h"
+#include "solid/optimizer/optimize.h"
 #include "solid/render/params.h"
 
 namespace solid::exporters {
 namespace {
 
 namespace fs = std::filesystem;
-using optimize::Metric;
+using optimizer::Metric;
 
 constexpr int kOcclusionBins = 10;
 constexpr int kAzimuthBins = 36, kElevationBins = 18;  // 10 degrees each
@@ -353,10 +353,10 @@ Result<ReportSummary> WriteReport(const ReportOptions& options) {
   summary.images = metrics.images;
   summary.instances = stats.instances;
   summary.target_row = options.target_row == "none" ? "" : options.target_row.empty() ? DetectPreset(m) : options.target_row;
-  std::vector<optimize::Comparison> comparisons;
+  std::vector<optimizer::Comparison> comparisons;
   if (!summary.target_row.empty()) {
-    SOLID_ASSIGN_OR_RETURN(std::vector<optimize::Target> targets, optimize::TableRowTargets(summary.target_row));
-    comparisons = optimize::CompareWithTargets(metrics, targets);
+    SOLID_ASSIGN_OR_RETURN(std::vector<optimizer::Target> targets, optimizer::TableRowTargets(summary.target_row));
+    comparisons = optimizer::CompareWithTargets(metrics, targets);
   }
 
   std::string html = fmt::format(
@@ -392,15 +392,15 @@ Result<ReportSummary> WriteReport(const ReportOptions& options) {
   html += "<table><tr><th>metric</th><th>measured (95% CI)</th><th>target</th><th>tolerance</th><th></th></tr>";
   for (const Metric metric : {Metric::kObjectsPerImage, Metric::kOcclusion, Metric::kSmall, Metric::kMedium,
                               Metric::kLarge}) {
-    const Estimate e = optimize::MetricOf(metrics, metric);
+    const Estimate e = optimizer::MetricOf(metrics, metric);
     std::string target = "<td></td><td></td><td></td>";
-    for (const optimize::Comparison& c : comparisons) {
+    for (const optimizer::Comparison& c : comparisons) {
       if (c.metric != metric) continue;
       target = fmt::format("<td class=\"num\">{}</td><td class=\"num\">±{}</td><td class=\"{}\">{}</td>",
                            Format(metric, c.reference.mean), Format(metric, c.tolerance), c.agrees ? "ok" : "bad",
                            c.agrees ? "met" : "missed");
     }
-    html += fmt::format("<tr><td>{}</td><td class=\"num\">{} ± {}</td>{}</tr>", optimize::MetricName(metric),
+    html += fmt::format("<tr><td>{}</td><td class=\"num\">{} ± {}</td>{}</tr>", optimizer::MetricName(metric),
                         Format(metric, e.mean), Format(metric, e.ci95), target);
   }
   const auto [class_width, class_height] = m.ScaleClassResolution();

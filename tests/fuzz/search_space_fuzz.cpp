@@ -1,5 +1,5 @@
 // libFuzzer target for search-space files of `solid optimize --space`:
-// optimize::SearchSpace::Load (limits, JSON, the search-space JSON Schema, bounds), then
+// optimizer::SearchSpace::Load (limits, JSON, the search-space JSON Schema, bounds), then
 // what the optimizer does with an accepted space: its dimensions for the start params
 // (the file's preset, or "more-objects", whose scale law is a mixture), and Encode and
 // Decode at the start and at the corners of the box.
@@ -8,20 +8,20 @@
 #include <vector>
 
 #include "fuzz/fuzz_util.h"
-#include "solid/optimize/search_space.h"
+#include "solid/optimizer/search_space.h"
 
 using solid::fuzz::Fail;
-namespace optimize = solid::optimize;
+namespace optimize = solid::optimizer;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::filesystem::path path = solid::fuzz::ScratchDir() / "space.json";
   solid::fuzz::WriteFileOrDie(path, std::span<const uint8_t>(data, size));
-  solid::Result<optimize::SearchSpace> space = optimize::SearchSpace::Load(path);
+  solid::Result<optimizer::SearchSpace> space = optimizer::SearchSpace::Load(path);
   if (!space.ok()) return 0;
   solid::Result<solid::render::LayoutParams> start =
       solid::render::LoadPreset(space->start_preset().value_or("more-objects"));
   if (!start.ok()) return 0;  // an unknown preset name: refused when the optimizer starts
-  solid::Result<std::vector<optimize::Dimension>> dims = space->Dimensions(*start);
+  solid::Result<std::vector<optimizer::Dimension>> dims = space->Dimensions(*start);
   if (!dims.ok()) return 0;
   const std::vector<double> x = space->Encode(*start);
   if (x.size() != dims->size()) Fail("Encode gives a point of the wrong dimension");
@@ -30,7 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   (void)space->Decode(*start, x);
   std::vector<double> lo, hi;
-  for (const optimize::Dimension& d : *dims) {
+  for (const optimizer::Dimension& d : *dims) {
     lo.push_back(d.lo);
     hi.push_back(d.hi);
   }

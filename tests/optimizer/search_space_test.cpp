@@ -1,6 +1,6 @@
 // The search-space file: located errors for unknown keys and bad bounds, the default fit
 // knobs, and the encoding of params as points (transforms and their inverses).
-#include "solid/optimize/search_space.h"
+#include "solid/optimizer/search_space.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -11,7 +11,7 @@
 #include "formats/test_util.h"
 #include "solid/formats/json_schema.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 namespace {
 
 using ::testing::HasSubstr;
@@ -143,4 +143,4 @@ TEST(SearchSpace, EveryCornerOfTheBoxDecodesToValidParams) {
 }
 
 }  // namespace
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

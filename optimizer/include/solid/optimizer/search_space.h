@@ -22,7 +22,7 @@
 #include "solid/formats/status.h"
 #include "solid/render/params.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 
 enum class Transform { kValue, kRange, kUpper, kLower, kSimplex };
 
@@ -88,4 +88,4 @@ class SearchSpace {
   std::optional<std::filesystem::path> start_params_;
 };
 
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

@@ -1,7 +1,7 @@
 // The optimizer on the procedural assets: a deterministic objective under common random
 // numbers, a target met at the start costs no search, a reduced Table-1 fit converges,
 // an infeasible target ends with its blocking bound; and dataset metrics from stored masks.
-#include "solid/optimize/optimize.h"
+#include "solid/optimizer/optimize.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -20,7 +20,7 @@
 #include "solid/formats/inspect.h"
 #include "solid/formats/json_schema.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 namespace {
 
 using ::testing::HasSubstr;
@@ -456,4 +456,4 @@ TEST(DatasetMetrics, MatchTheStoredAreas) {
 }
 
 }  // namespace
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

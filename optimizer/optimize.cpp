@@ -1,4 +1,4 @@
-#include "solid/optimize/optimize.h"
+#include "solid/optimizer/optimize.h"
 
 #include <fmt/format.h>
 
@@ -18,7 +18,7 @@
 #include "solid/formats/shard.h"
 #include "solid/render/sample.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -869,4 +869,4 @@ std::vector<Comparison> CompareWithPrediction(const ProxyMetrics& measured, cons
   return out;
 }
 
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

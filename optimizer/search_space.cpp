@@ -1,4 +1,4 @@
-#include "solid/optimize/search_space.h"
+#include "solid/optimizer/search_space.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -10,7 +10,7 @@
 #include "solid/formats/json_schema.h"
 #include "solid/formats/schemas.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 namespace {
 
 using render::Interval;
@@ -371,4 +371,4 @@ Result<LayoutParams> SearchSpace::Decode(const LayoutParams& base, std::span<con
   return p;
 }
 
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

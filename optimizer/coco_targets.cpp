@@ -1,4 +1,4 @@
-#include "solid/optimize/coco_targets.h"
+#include "solid/optimizer/coco_targets.h"
 
 #include <fmt/format.h>
 
@@ -15,7 +15,7 @@
 
 #include "solid/formats/records.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 namespace {
 
 namespace fs = std::filesystem;
@@ -674,4 +674,4 @@ Result<CocoMatch> TargetsFromCocoText(std::string_view text, std::string_view na
   return Match(&source, restart, name, options);
 }
 
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

@@ -12,11 +12,11 @@
 #include "formats/test_util.h"
 #include "render/test_assets.h"
 #include "solid/export/coco.h"
-#include "solid/optimize/coco_targets.h"
-#include "solid/optimize/optimize.h"
+#include "solid/optimizer/coco_targets.h"
+#include "solid/optimizer/optimize.h"
 #include "solid/render/render_dataset.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 namespace {
 
 render::LayoutParams SmallOutput(std::string_view preset) {
@@ -151,4 +151,4 @@ TEST(FittedLoop, TargetsMatchedFromTheDatasetsCocoExportAreItsMetricsAndAreReach
 }
 
 }  // namespace
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

@@ -2,7 +2,7 @@
 // (crowd left out, empty images counted or skipped, areas rescaled per image, the class
 // thresholds at their boundaries, either order of the arrays), and each kind of bad file
 // with its code and the JSON Pointer in the message.
-#include "solid/optimize/coco_targets.h"
+#include "solid/optimizer/coco_targets.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -15,7 +15,7 @@
 
 #include "formats/test_util.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 namespace {
 
 using ::testing::HasSubstr;
@@ -383,4 +383,4 @@ TEST_F(CocoTargetsTest, TheResolutionMustBePositive) {
 }
 
 }  // namespace
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

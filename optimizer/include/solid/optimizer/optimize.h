@@ -29,11 +29,11 @@
 #include "solid/formats/cancel.h"
 #include "solid/formats/metrics.h"
 #include "solid/formats/status.h"
-#include "solid/optimize/search_space.h"
+#include "solid/optimizer/search_space.h"
 #include "solid/render/assets.h"
 #include "solid/render/params.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 
 inline constexpr int64_t kConfirmFirst = int64_t{1} << 40;
 inline constexpr int64_t kPilotFirst = int64_t{1} << 41;
@@ -242,4 +242,4 @@ std::vector<Comparison> CompareWithTargets(const ProxyMetrics& measured, const s
 // tolerance plus the 95% CI of the difference.
 std::vector<Comparison> CompareWithPrediction(const ProxyMetrics& measured, const ProxyMetrics& predicted);
 
-}  // namespace solid::optimize
+}  // namespace solid::optimizer

@@ -34,9 +34,9 @@
 
 #include "solid/formats/metrics.h"
 #include "solid/formats/status.h"
-#include "solid/optimize/optimize.h"
+#include "solid/optimizer/optimize.h"
 
-namespace solid::optimize {
+namespace solid::optimizer {
 
 struct CocoMatchOptions {
   // The resolution at which scale classes are counted (the dataset's, solid-method.md 4.2):
@@ -99,4 +99,4 @@ Result<CocoMatch> TargetsFromCoco(const std::filesystem::path& annotations, cons
 Result<CocoMatch> TargetsFromCocoText(std::string_view text, std::string_view name,
                                       const CocoMatchOptions& options = {});
 
-}  // namespace solid::optimize
+}  // namespace solid::optimizer
