@@ -62,8 +62,13 @@ render::AssetLibraryOptions AssetLibraryOptionsFor(uint64_t megabytes);
 std::string Ranges(const std::vector<std::pair<int64_t, int64_t>>& ranges);
 std::string Ranges(const std::vector<int64_t>& sorted);
 
-// Prints "solid: <message>" on stderr and returns the exit code for the status.
-int Fail(const Status& status);
+// A command's options-struct fields and the flags that set them, e.g. {"images", "--images"}.
+using FlagNames = std::vector<std::pair<std::string_view, std::string_view>>;
+
+// Prints "solid: <message>" on stderr and returns the exit code for the status. A status
+// about an option field (Status::ForOption) that `flags` names is printed with the flag
+// in place of the field.
+int Fail(const Status& status, const FlagNames& flags = {});
 
 }  // namespace solid::cli
 

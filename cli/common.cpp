@@ -113,8 +113,16 @@ std::string Ranges(const std::vector<int64_t>& sorted) {
   return Ranges(ranges);
 }
 
-int Fail(const Status& status) {
-  fmt::print(stderr, "solid: {}\n", status.message());
+int Fail(const Status& status, const FlagNames& flags) {
+  std::string message = status.message();
+  for (const auto& [field, flag] : flags) {
+    if (status.option() != field) continue;
+    const std::string prefix = std::string(field) + ": ";
+    if (const size_t at = message.find(prefix); at != std::string::npos) {
+      message.replace(at, prefix.size(), std::string(flag) + ": ");
+    }
+  }
+  fmt::print(stderr, "solid: {}\n", message);
   return status.code() == StatusCode::kCancelled ? StopExitCode() : ExitCodeFor(status);
 }
 

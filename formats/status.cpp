@@ -19,9 +19,17 @@ std::string_view StatusCodeName(StatusCode code) {
   return "unknown";
 }
 
+Status Status::ForOption(std::string_view option, std::string_view message) {
+  Status status(StatusCode::kInvalidArgument, std::string(option) + ": " + std::string(message));
+  status.option_ = option;
+  return status;
+}
+
 Status Status::WithContext(std::string_view where) const& {
   if (ok()) return *this;
-  return Status(code_, std::string(where) + ": " + message_);
+  Status status(code_, std::string(where) + ": " + message_);
+  status.option_ = option_;
+  return status;
 }
 
 Status Status::WithContext(std::string_view where) && {

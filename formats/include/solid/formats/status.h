@@ -36,12 +36,18 @@ class [[nodiscard]] Status {
  public:
   Status() = default;
   Status(StatusCode code, std::string message) : code_(code), message_(std::move(message)) {}
+  // kInvalidArgument for one field of a library call's options struct: the message starts
+  // with "<option>: ", and option() keeps the field's name, so that a front end can name
+  // its own spelling of it (the CLI's flag) without parsing the message.
+  static Status ForOption(std::string_view option, std::string_view message);
 
   static Status Ok() { return Status(); }
 
   bool ok() const { return code_ == StatusCode::kOk; }
   StatusCode code() const { return code_; }
   const std::string& message() const { return message_; }
+  // The options-struct field this status is about (ForOption), else empty.
+  const std::string& option() const { return option_; }
 
   // Prefixes the message with a location, e.g. "shards/shard-000001.sqlite: " + message.
   Status WithContext(std::string_view where) const&;
@@ -53,6 +59,7 @@ class [[nodiscard]] Status {
  private:
   StatusCode code_ = StatusCode::kOk;
   std::string message_;
+  std::string option_;
 };
 
 inline Status InvalidArgumentError(std::string m) { return {StatusCode::kInvalidArgument, std::move(m)}; }
@@ -65,6 +72,7 @@ inline Status NotFoundError(std::string m) { return {StatusCode::kNotFound, std:
 inline Status AlreadyExistsError(std::string m) { return {StatusCode::kAlreadyExists, std::move(m)}; }
 inline Status InternalError(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
 inline Status CancelledError(std::string m) { return {StatusCode::kCancelled, std::move(m)}; }
+inline Status OptionError(std::string_view option, std::string_view m) { return Status::ForOption(option, m); }
 
 // Either a value or a non-OK Status. C++20 has no std::expected.
 template <typename T>
