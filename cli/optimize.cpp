@@ -9,7 +9,8 @@
 #include "signals.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/files.h"
-#include "solid/optimizer/coco_targets.h"
+#include "solid/optimizer/dataset_metrics.h"
+#include "solid/optimizer/fit.h"
 #include "solid/optimizer/optimize.h"
 #include "solid/render/sample.h"
 
@@ -19,77 +20,22 @@ namespace {
 using optimizer::Metric;
 
 struct OptimizeFlags {
-  std::string preset, params, space, assets, rooms, out, trace, target_row, eval_resolution, match_coco;
-  bool skip_empty_images = false;
-  std::vector<std::string> free, fix;
-  std::optional<double> count, occlusion;
-  std::vector<double> scale;
-  double tol_count = optimizer::DefaultTolerance(Metric::kObjectsPerImage);
-  double tol_occlusion = optimizer::DefaultTolerance(Metric::kOcclusion);
-  double tol_scale = optimizer::DefaultTolerance(Metric::kSmall);
-  optimizer::OptimizeOptions options;
+  optimizer::FitOptions fit;
+  std::string eval_resolution;
   uint64_t asset_cache_mb = 2048;
   bool json = false;
-  bool refit = false;
 };
+
+// The fields of FitOptions (and of its search) that a flag sets, for errors naming a field.
+const FlagNames kOptimizeFlags = {{"preset", "--preset"},           {"out", "--out"},
+                                  {"assets", "--assets"},           {"target_row", "--target-row"},
+                                  {"target_scale", "--target-scale"}, {"targets", "--target-row"},
+                                  {"algorithm", "--algorithm"},     {"global_algorithm", "--global"},
+                                  {"layouts", "--layouts"},         {"confirm_layouts", "--confirm-layouts"},
+                                  {"max_rounds", "--rounds"},       {"space", "--space"}};
 
 std::string Percent(Metric m, double v) {
   return m == Metric::kObjectsPerImage ? fmt::format("{:.2f}", v) : fmt::format("{:.1f}%", 100 * v);
-}
-
-// --target-row first, then --match-coco's count and shares, then the single targets
-// override or add. `start` gives the resolution the COCO areas are classed at.
-Result<std::vector<optimizer::Target>> ResolveTargets(const OptimizeFlags& f, const render::LayoutParams& start) {
-  std::vector<optimizer::Target> targets;
-  if (!f.target_row.empty()) {
-    SOLID_ASSIGN_OR_RETURN(targets, optimizer::TableRowTargets(f.target_row));
-  }
-  auto set = [&](Metric m, double value) {
-    std::erase_if(targets, [&](const optimizer::Target& t) { return t.metric == m; });
-    targets.push_back({m, value, 0});
-  };
-  if (!f.match_coco.empty()) {
-    optimizer::CocoMatchOptions coco;
-    std::tie(coco.width, coco.height) = render::ScaleClassResolution(start);
-    coco.skip_empty_images = f.skip_empty_images;
-    SOLID_ASSIGN_OR_RETURN(const optimizer::CocoMatch match, optimizer::TargetsFromCoco(f.match_coco, coco));
-    fmt::print(stderr, "solid: targets from {}: {} images ({} counted, {} without annotations{}), {} annotations "
-                       "({} crowd left out), areas classed at {}x{}\n",
-               f.match_coco, match.images, match.images_counted, match.empty_images,
-               f.skip_empty_images ? ", skipped" : ", counted as 0 objects", match.annotations, match.crowd_skipped,
-               match.width, match.height);
-    for (const optimizer::Target& t : match.targets) {
-      const Estimate e = t.metric == Metric::kObjectsPerImage ? match.objects_per_image
-                         : t.metric == Metric::kSmall         ? match.small
-                         : t.metric == Metric::kMedium        ? match.medium
-                                                              : match.large;
-      fmt::print(stderr, "solid:   {:<18} {:>8} +- {} (n = {})\n", optimizer::MetricName(t.metric),
-                 Percent(t.metric, t.value), Percent(t.metric, e.ci95),
-                 t.metric == Metric::kObjectsPerImage ? match.images_counted : match.annotations);
-      set(t.metric, t.value);
-    }
-    if (!f.occlusion && f.target_row.empty()) {
-      fmt::print(stderr, "solid:   occlusion is not in COCO annotations and is left free (--target-occlusion or "
-                         "--target-row sets it)\n");
-    }
-  }
-  if (f.count) set(Metric::kObjectsPerImage, *f.count);
-  if (f.occlusion) set(Metric::kOcclusion, *f.occlusion);
-  if (!f.scale.empty()) {
-    if (f.scale.size() != 3) return InvalidArgumentError("--target-scale: expected three shares SMALL,MEDIUM,LARGE");
-    set(Metric::kSmall, f.scale[0]);
-    set(Metric::kMedium, f.scale[1]);
-    set(Metric::kLarge, f.scale[2]);
-  }
-  for (optimizer::Target& t : targets) {
-    t.tolerance = t.metric == Metric::kObjectsPerImage ? f.tol_count
-                  : t.metric == Metric::kOcclusion     ? f.tol_occlusion
-                                                       : f.tol_scale;
-  }
-  if (targets.empty()) {
-    return InvalidArgumentError("no target: give --target-row, --match-coco or --target-count/-occlusion/-scale");
-  }
-  return targets;
 }
 
 void PrintReport(const optimizer::OptimizeReport& r, const std::string& out) {
@@ -134,156 +80,83 @@ void PrintReport(const optimizer::OptimizeReport& r, const std::string& out) {
   fmt::print("params written to {}\n", out);
 }
 
+void PrintRecordedFit(const nlohmann::json& fit, const std::string& out) {
+  fmt::print("{} is up to date: fitted for these assets, start, targets and options ({} after {} evaluations, "
+             "{:.1f} s); nothing to do (--refit fits again)\n",
+             out, fit.value("all_met", false) ? "MET" : "NOT MET", fit.value("evaluations", 0),
+             fit.value("seconds", 0.0));
+  for (const nlohmann::json& t : fit.value("targets", nlohmann::json::array())) {
+    const Metric m = optimizer::MetricByName(t.value("metric", "")).value_or(Metric::kObjectsPerImage);
+    fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", t.value("metric", ""), Percent(m, t.value("target", 0.0)),
+               Percent(m, t.value("tolerance", 0.0)),
+               fmt::format("{} +- {}", Percent(m, t["achieved"].value("mean", 0.0)),
+                           Percent(m, t["achieved"].value("ci95", 0.0))),
+               t.value("met", false) ? "ok" : "MISSED");
+  }
+}
+
 int RunOptimize(OptimizeFlags& f) {
-  optimizer::OptimizeOptions& o = f.options;
-  optimizer::SearchSpace space;
-  if (!f.space.empty()) {
-    SOLID_ASSIGN_OR_RETURN_EXIT(space, optimizer::SearchSpace::Load(f.space));
-  }
-  Result<render::LayoutParams> start = !f.params.empty()                ? render::LoadParamsFile(f.params)
-                                       : !f.preset.empty()              ? render::LoadPreset(f.preset)
-                                       : space.start_params().has_value() ? render::LoadParamsFile(*space.start_params())
-                                       : space.start_preset().has_value() ? render::LoadPreset(*space.start_preset())
-                                                                          : InvalidArgumentError("give --preset, --params, or a --space with a start");
-  if (!start.ok()) return Fail(start.status());
-  o.start = *start;
-  if (f.space.empty()) space = optimizer::SearchSpace::FitKnobs(o.start);
-  for (const std::string& k : f.free) {
-    if (Status s = space.Free(k, o.start); !s.ok()) return Fail(s);
-  }
-  for (const std::string& k : f.fix) {
-    if (Status s = space.Fix(k); !s.ok()) return Fail(s);
-  }
-  o.space = std::move(space);
-  SOLID_ASSIGN_OR_RETURN_EXIT(o.targets, ResolveTargets(f, o.start));
+  optimizer::FitOptions& o = f.fit;
   if (!f.eval_resolution.empty()) {
     SOLID_ASSIGN_OR_RETURN_EXIT(auto wh, ParseResolution("--eval-resolution", f.eval_resolution));
-    std::tie(o.eval_width, o.eval_height) = wh;
+    std::tie(o.search.eval_width, o.search.eval_height) = wh;
   }
-  SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
-                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms,
-                                                         AssetLibraryOptionsFor(f.asset_cache_mb)));
-  o.on_evaluation = [](const optimizer::TraceRow& t) {
+  o.asset_cache_bytes = f.asset_cache_mb << 20;
+  o.on_note = [](const std::string& line) { fmt::print(stderr, "solid: {}\n", line); };
+  o.search.on_evaluation = [](const optimizer::TraceRow& t) {
     const ProxyMetrics& m = t.metrics;
     fmt::print(stderr, "eval {:>4} r{} {:<6} objective {:>9.3f}  count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%  {:6.1f} s\n",
                t.evaluation, t.round, t.phase, t.objective, m.objects_per_image.mean, 100 * m.occlusion.mean,
                100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, t.seconds);
   };
-  const optimizer::FitFiles files{f.out, f.trace};
-  const uint64_t fingerprint = optimizer::FitFingerprint(o, library->catalog_hash());
-  if (!f.refit) {
-    if (const std::optional<nlohmann::json> fit = optimizer::ReusableFit(files, fingerprint)) {
-      const bool met = fit->value("all_met", false);
-      if (f.json) {
-        std::cout << fit->dump(2) << "\n";
-      } else {
-        fmt::print("{} is up to date: fitted for these assets, start, targets and options ({} after {} evaluations, "
-                   "{:.1f} s); nothing to do (--refit fits again)\n",
-                   f.out, met ? "MET" : "NOT MET", fit->value("evaluations", 0), fit->value("seconds", 0.0));
-        for (const nlohmann::json& t : fit->value("targets", nlohmann::json::array())) {
-          const Metric m = optimizer::MetricByName(t.value("metric", "")).value_or(Metric::kObjectsPerImage);
-          fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", t.value("metric", ""), Percent(m, t.value("target", 0.0)),
-                     Percent(m, t.value("tolerance", 0.0)),
-                     fmt::format("{} +- {}", Percent(m, t["achieved"].value("mean", 0.0)),
-                                 Percent(m, t["achieved"].value("ci95", 0.0))),
-                     t.value("met", false) ? "ok" : "MISSED");
-        }
-      }
-      return met ? kExitOk : kExitProblems;
-    }
-  }
-  o.cancel = InstallStopHandlers();
-  Result<optimizer::OptimizeReport> optimized = optimizer::Optimize(library, o);
-  if (optimized.status().code() == StatusCode::kCancelled) {
-    fmt::print(stderr, "solid: {} ({}); nothing written\n", optimized.status().message(), StopSignalName());
+  o.search.cancel = InstallStopHandlers();
+  Result<optimizer::FitReport> fitted = optimizer::Fit(o);
+  if (fitted.status().code() == StatusCode::kCancelled) {
+    fmt::print(stderr, "solid: {} ({}); nothing written\n", fitted.status().message(), StopSignalName());
     return StopExitCode();
   }
-  SOLID_ASSIGN_OR_RETURN_EXIT(optimizer::OptimizeReport report, std::move(optimized));
-  const std::string comment = report.cancelled
-                                  ? fmt::format("solid optimize: stopped by {} after {} evaluations; the best point so "
-                                                "far, not confirmed on fresh layouts",
-                                                StopSignalName(), report.evaluations)
-                                  : fmt::format("solid optimize: {} evaluations, targets {}", report.evaluations,
-                                                report.all_met ? "met" : "NOT met");
-  if (Status s = optimizer::WriteFit(report, files, fingerprint, comment); !s.ok()) return Fail(s);
+  if (!fitted.ok()) return Fail(fitted.status(), kOptimizeFlags);
+  const std::string out = o.out.params.string();
   if (f.json) {
-    std::cout << report.ToJson().dump(2) << "\n";
+    std::cout << fitted->summary.dump(2) << "\n";
+  } else if (fitted->reused) {
+    PrintRecordedFit(fitted->summary, out);
   } else {
-    PrintReport(report, f.out);
+    PrintReport(*fitted->optimized, out);
   }
-  if (report.cancelled) {
+  if (fitted->cancelled) {
     fmt::print(stderr, "solid: stopped by {}: {} evaluations done; the best point so far is in {}{} (not confirmed "
                        "on fresh layouts). A rerun starts the search again; to go on from here, start it from that "
                        "file: --params {}\n",
-               StopSignalName(), report.evaluations, f.out, f.trace.empty() ? "" : ", the evaluations in " + f.trace,
-               f.out);
+               StopSignalName(), fitted->optimized->evaluations, out,
+               o.out.trace.empty() ? "" : ", the evaluations in " + o.out.trace.string(), out);
     return StopExitCode();
   }
-  return report.all_met ? kExitOk : kExitProblems;
+  return fitted->all_met ? kExitOk : kExitProblems;
 }
 
 struct MetricsFlags {
-  std::string dataset, compare, target_row, assets, rooms;
-  int64_t layouts = 2000;
-  uint64_t seed = 1;
-  int jobs = 0;
+  optimizer::MetricsOptions options;
   bool json = false;
 };
 
+const FlagNames kMetricsFlags = {{"target_row", "--target-row"}, {"compare", "--compare"},
+                                 {"assets", "--assets"},         {"layouts", "--layouts"}};
+
 int RunMetrics(const MetricsFlags& f) {
-  SOLID_ASSIGN_OR_RETURN_EXIT(ProxyMetrics measured, optimizer::DatasetMetrics(f.dataset));
-  SOLID_ASSIGN_OR_RETURN_EXIT(const Manifest manifest, ReadManifest(f.dataset));
-  const std::string scale_classes =
-      fmt::format("{}x{}", manifest.ScaleClassResolution().first, manifest.ScaleClassResolution().second);
-  std::vector<optimizer::Comparison> comparisons;
-  std::string against;
-  if (!f.target_row.empty()) {
-    SOLID_ASSIGN_OR_RETURN_EXIT(std::vector<optimizer::Target> targets, optimizer::TableRowTargets(f.target_row));
-    comparisons = optimizer::CompareWithTargets(measured, targets);
-    against = "Table-1 row " + f.target_row;
-  } else if (!f.compare.empty()) {
-    SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, render::LoadParamsFile(f.compare));
-    SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
-                                render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms));
-    SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
-                                render::LayoutSampler::Create(params, library));
-    render::SampleOptions options;
-    options.seed = f.seed;
-    options.first = optimizer::kPilotFirst;
-    options.layouts = f.layouts;
-    options.jobs = f.jobs;
-    SOLID_ASSIGN_OR_RETURN_EXIT(render::SampleReport predicted, render::RunSample(*sampler, options));
-    comparisons = optimizer::CompareWithPrediction(measured, predicted.metrics);
-    against = fmt::format("{} sampled ({} layouts at {}x{})", f.compare, f.layouts, params.width, params.height);
-  }
-  bool agree = true;
-  for (const optimizer::Comparison& c : comparisons) agree = agree && c.agrees;
+  Result<optimizer::MetricsReport> result = optimizer::MeasureDataset(f.options);
+  if (!result.ok()) return Fail(result.status(), kMetricsFlags);
+  const optimizer::MetricsReport& r = *result;
   if (f.json) {
-    nlohmann::json j = {{"dataset", f.dataset},
-                        {"metrics", measured.ToJson()},
-                        {"scale_classes_at", {manifest.ScaleClassResolution().first, manifest.ScaleClassResolution().second}}};
-    if (!comparisons.empty()) {
-      nlohmann::json rows = nlohmann::json::array();
-      for (const optimizer::Comparison& c : comparisons) {
-        rows.push_back({{"metric", optimizer::MetricName(c.metric)},
-                        {"measured", {{"mean", c.measured.mean}, {"ci95", c.measured.ci95}}},
-                        {"reference", {{"mean", c.reference.mean}, {"ci95", c.reference.ci95}}},
-                        {"tolerance", c.tolerance},
-                        {"agrees", c.agrees}});
-      }
-      j["compared_with"] = against;
-      j["comparison"] = rows;
-      j["all_agree"] = agree;
-    }
-    std::cout << j.dump(2) << "\n";
+    std::cout << r.ToJson().dump(2) << "\n";
   } else {
-    fmt::print("{}: {} images, {} visible instances (95% CI), scale classes counted at {}\n", f.dataset,
-               measured.images, measured.visible_instances, scale_classes);
-    if (!comparisons.empty()) fmt::print("compared with {}\n", against);
-    for (const optimizer::Comparison& c : optimizer::CompareWithPrediction(measured, measured)) {
+    fmt::print("{}: {} images, {} visible instances (95% CI), scale classes counted at {}x{}\n", r.dataset.string(),
+               r.measured.images, r.measured.visible_instances, r.scale_classes_at.first, r.scale_classes_at.second);
+    if (!r.compared_with.empty()) fmt::print("compared with {}\n", r.compared_with);
+    for (const optimizer::Comparison& c : optimizer::CompareWithPrediction(r.measured, r.measured)) {
       const Metric m = c.metric;
       std::string ref;
-      for (const optimizer::Comparison& k : comparisons) {
+      for (const optimizer::Comparison& k : r.comparisons) {
         if (k.metric != m) continue;
         ref = fmt::format("   vs {} +- {} (tol {}) {}", Percent(m, k.reference.mean), Percent(m, k.reference.ci95),
                           Percent(m, k.tolerance), k.agrees ? "ok" : "DIFFERS");
@@ -292,7 +165,7 @@ int RunMetrics(const MetricsFlags& f) {
                  Percent(m, c.measured.ci95), ref);
     }
   }
-  return agree ? kExitOk : kExitProblems;
+  return r.all_agree ? kExitOk : kExitProblems;
 }
 
 }  // namespace
@@ -303,32 +176,34 @@ Command AddOptimize(CLI::App& app) {
       "Search layout knobs with NLopt until the proxy metrics of sampled layouts (mask pass only) hit targets; "
       "write the params file.");
   auto f = std::make_shared<OptimizeFlags>();
-  optimizer::OptimizeOptions& o = f->options;
-  auto* preset = cmd->add_option("--preset", f->preset, "Start from this Table-1 preset");
-  auto* params = cmd->add_option("--params", f->params, "Start from this params file");
+  optimizer::FitOptions& fit = f->fit;
+  optimizer::OptimizeOptions& o = fit.search;
+  optimizer::TargetSpec& t = fit.targets;
+  auto* preset = cmd->add_option("--preset", fit.preset, "Start from this Table-1 preset");
+  auto* params = cmd->add_option("--params", fit.params, "Start from this params file");
   preset->excludes(params);
   params->excludes(preset);
-  cmd->add_option("--space", f->space, "Search-space file (schemas/search-space.schema.json); default: the fit knobs");
-  cmd->add_option("--free", f->free, "Also free these knobs (comma-separated, default bounds)")->delimiter(',');
-  cmd->add_option("--fix", f->fix, "Fix these knobs at the start's value (comma-separated)")->delimiter(',');
-  cmd->add_option("--assets", f->assets, "Assets directory with the models")->required();
-  cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  cmd->add_option("--space", fit.space, "Search-space file (schemas/search-space.schema.json); default: the fit knobs");
+  cmd->add_option("--free", fit.free, "Also free these knobs (comma-separated, default bounds)")->delimiter(',');
+  cmd->add_option("--fix", fit.fix, "Fix these knobs at the start's value (comma-separated)")->delimiter(',');
+  cmd->add_option("--assets", fit.assets, "Assets directory with the models")->required();
+  cmd->add_option("--rooms", fit.rooms, "Assets directory with the rooms (default: --assets)");
   AddAssetCacheFlag(cmd, &f->asset_cache_mb);
-  cmd->add_option("--out,-o", f->out, "Params file to write (usable by solid sample --params)")->required();
-  cmd->add_option("--trace", f->trace, "Write every evaluation to this file (.csv, else JSON)");
-  cmd->add_option("--target-row", f->target_row, "Targets of a Table-1 row (a preset name)");
-  cmd->add_option("--match-coco", f->match_coco,
+  cmd->add_option("--out,-o", fit.out.params, "Params file to write (usable by solid sample --params)")->required();
+  cmd->add_option("--trace", fit.out.trace, "Write every evaluation to this file (.csv, else JSON)");
+  cmd->add_option("--target-row", t.target_row, "Targets of a Table-1 row (a preset name)");
+  cmd->add_option("--match-coco", t.match_coco,
                   "Targets for the count and the small/medium/large shares from a COCO instances file (your "
                   "downstream data): crowd annotations left out, each area rescaled to the scale-class resolution");
-  cmd->add_flag("--skip-empty-images", f->skip_empty_images,
+  cmd->add_flag("--skip-empty-images", t.skip_empty_images,
                 "With --match-coco: leave out images without annotations (default: they count as 0 objects)");
-  cmd->add_option("--target-count", f->count, "Target visible objects per image");
-  cmd->add_option("--target-occlusion", f->occlusion, "Target mean occlusion, a fraction (0.38)");
-  cmd->add_option("--target-scale", f->scale, "Target small,medium,large shares, fractions (0.33,0.39,0.28)")
+  cmd->add_option("--target-count", t.target_count, "Target visible objects per image");
+  cmd->add_option("--target-occlusion", t.target_occlusion, "Target mean occlusion, a fraction (0.38)");
+  cmd->add_option("--target-scale", t.target_scale, "Target small,medium,large shares, fractions (0.33,0.39,0.28)")
       ->delimiter(',');
-  cmd->add_option("--tol-count", f->tol_count, "Tolerance of the count")->capture_default_str();
-  cmd->add_option("--tol-occlusion", f->tol_occlusion, "Tolerance of the occlusion (fraction)")->capture_default_str();
-  cmd->add_option("--tol-scale", f->tol_scale, "Tolerance of each scale share (fraction)")->capture_default_str();
+  cmd->add_option("--tol-count", t.tol_count, "Tolerance of the count")->capture_default_str();
+  cmd->add_option("--tol-occlusion", t.tol_occlusion, "Tolerance of the occlusion (fraction)")->capture_default_str();
+  cmd->add_option("--tol-scale", t.tol_scale, "Tolerance of each scale share (fraction)")->capture_default_str();
   cmd->add_option("--algorithm", o.algorithm, "Local algorithm: gauss-newton (trust-region Gauss-Newton on the residuals), "
                    "or NLopt's sbplx, neldermead, bobyqa, cobyla, praxis")
       ->capture_default_str();
@@ -350,7 +225,7 @@ Command AddOptimize(CLI::App& app) {
   AddSeedOption(cmd, &o.seed, "Layout seed");
   AddJobsOption(cmd, &o.jobs, "Layouts in parallel (default: all cores)");
   cmd->add_flag("--json", f->json, "Print the summary as JSON");
-  cmd->add_flag("--refit", f->refit,
+  cmd->add_flag("--refit", fit.refit,
                 "Fit even when --out was fitted by an earlier run for the same assets, start, targets and options "
                 "(its fit record, OUT.fit.json, says so)");
   return [f]() { return RunOptimize(*f); };
@@ -361,24 +236,18 @@ Command AddMetrics(CLI::App& app) {
       "metrics", "Proxy metrics of a rendered dataset from its stored masks, with 95% CIs; optionally compared with "
                  "a Table-1 row's targets or with a params file's sampled prediction.");
   auto f = std::make_shared<MetricsFlags>();
-  cmd->add_option("dataset", f->dataset, "Dataset directory")->required();
-  auto* row = cmd->add_option("--target-row", f->target_row, "Compare with the targets of this Table-1 row");
-  auto* compare = cmd->add_option("--compare", f->compare, "Compare with the metrics of this params file, sampled");
+  cmd->add_option("dataset", f->options.dataset, "Dataset directory")->required();
+  auto* row = cmd->add_option("--target-row", f->options.target_row, "Compare with the targets of this Table-1 row");
+  auto* compare = cmd->add_option("--compare", f->options.compare, "Compare with the metrics of this params file, sampled");
   row->excludes(compare);
   compare->excludes(row);
-  cmd->add_option("--assets", f->assets, "Models for --compare");
-  cmd->add_option("--rooms", f->rooms, "Rooms for --compare (default: --assets)");
-  cmd->add_option("--layouts,-n", f->layouts, "Layouts sampled for --compare")->capture_default_str();
-  AddSeedOption(cmd, &f->seed, "Seed of the layouts sampled for --compare");
-  AddJobsOption(cmd, &f->jobs, "Layouts in parallel for --compare (default: all cores)");
+  cmd->add_option("--assets", f->options.assets, "Models for --compare");
+  cmd->add_option("--rooms", f->options.rooms, "Rooms for --compare (default: --assets)");
+  cmd->add_option("--layouts,-n", f->options.layouts, "Layouts sampled for --compare")->capture_default_str();
+  AddSeedOption(cmd, &f->options.seed, "Seed of the layouts sampled for --compare");
+  AddJobsOption(cmd, &f->options.jobs, "Layouts in parallel for --compare (default: all cores)");
   cmd->add_flag("--json", f->json, "Print JSON");
-  return [f]() -> int {
-    if (!f->compare.empty() && f->assets.empty()) {
-      fmt::print(stderr, "solid metrics: --compare needs --assets\n");
-      return kExitUsage;
-    }
-    return RunMetrics(*f);
-  };
+  return [f]() { return RunMetrics(*f); };
 }
 
 }  // namespace solid::cli

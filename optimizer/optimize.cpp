@@ -1,6 +1,7 @@
 #include "solid/optimizer/optimize.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <nlopt.h>
 
@@ -14,7 +15,9 @@
 #include "solid/formats/checksum.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/files.h"
+#include "solid/formats/json_schema.h"
 #include "solid/formats/rle.h"
+#include "solid/formats/schemas.h"
 #include "solid/formats/shard.h"
 #include "solid/render/sample.h"
 
@@ -29,16 +32,38 @@ double SecondsSince(Clock::time_point t) { return std::chrono::duration<double>(
 constexpr Metric kMetrics[] = {Metric::kObjectsPerImage, Metric::kOcclusion, Metric::kSmall, Metric::kMedium,
                                Metric::kLarge};
 
-// solid-method.md 4.3: count, occlusion, small, medium, large.
-struct RowTargets {
-  std::string_view row;
-  double values[5];
+// schemas/table1.json, checked against schemas/table1.schema.json once. Both are embedded:
+// a failure is a defect of the build, not of the user's input.
+struct Table1 {
+  std::map<Metric, double> tolerances;
+  std::vector<std::pair<std::string, std::map<Metric, double>>> rows;
 };
-constexpr RowTargets kTable1[] = {
-    {"random-placement", {8.73, 0.19, 0.18, 0.52, 0.30}},   {"occlusion", {7.73, 0.32, 0.23, 0.48, 0.29}},
-    {"scale-distribution", {8.47, 0.33, 0.32, 0.37, 0.31}}, {"rotation", {8.10, 0.33, 0.35, 0.36, 0.29}},
-    {"scenenet-background", {8.72, 0.37, 0.38, 0.34, 0.28}}, {"more-objects", {13.72, 0.38, 0.33, 0.39, 0.28}},
-};
+
+const Table1& Table1Data() {
+  static const Table1 table = [] {
+    auto load = [](std::string_view name) {
+      Result<std::string_view> text = schemas::Get(name);
+      SOLID_CHECK(text.ok());
+      Result<nlohmann::json> document = json::ParseJson(*text, name);
+      SOLID_CHECK(document.ok());
+      return std::move(document).value();
+    };
+    const nlohmann::json data = load("table1.json");
+    Result<json::Schema> schema = json::Schema::Compile(load("table1.schema.json"), "table1.schema.json");
+    SOLID_CHECK(schema.ok());
+    SOLID_CHECK(schema->Check(data, "table1.json").ok());
+    auto metrics = [](const nlohmann::json& object) {
+      std::map<Metric, double> values;
+      for (Metric m : kMetrics) values[m] = object.at(std::string(MetricName(m))).get<double>();
+      return values;
+    };
+    Table1 t;
+    t.tolerances = metrics(data["tolerances"]);
+    for (const nlohmann::json& row : data["rows"]) t.rows.emplace_back(row["row"].get<std::string>(), metrics(row["targets"]));
+    return t;
+  }();
+  return table;
+}
 
 // A point moved this far (in the unit cube) inside from a bound tells whether the bound is
 // what stops a target.
@@ -74,8 +99,8 @@ Result<nlopt_algorithm> AlgorithmByName(std::string_view name, bool global) {
     if (e.name == name) return e.algorithm;
     valid += (valid.empty() ? "" : ", ") + std::string(e.name);
   }
-  return InvalidArgumentError(
-      fmt::format("unknown {} algorithm \"{}\"; choose one of {}", global ? "global" : "local", name, valid));
+  return OptionError(global ? "global_algorithm" : "algorithm",
+                     fmt::format("unknown {} algorithm \"{}\"; choose one of {}", global ? "global" : "local", name, valid));
 }
 
 bool Within(const ProxyMetrics& m, const std::vector<Target>& targets, double share) {
@@ -505,26 +530,22 @@ Estimate MetricOf(const ProxyMetrics& m, Metric metric) {
   return {};
 }
 
-double DefaultTolerance(Metric metric) {
-  switch (metric) {
-    case Metric::kObjectsPerImage: return 0.25;
-    case Metric::kOcclusion: return 0.015;
-    default: return 0.02;
-  }
+double DefaultTolerance(Metric metric) { return Table1Data().tolerances.at(metric); }
+
+std::vector<std::string> TableRows() {
+  std::vector<std::string> names;
+  for (const auto& row : Table1Data().rows) names.push_back(row.first);
+  return names;
 }
 
 Result<std::vector<Target>> TableRowTargets(std::string_view row) {
-  std::string names;
-  for (const RowTargets& r : kTable1) {
-    names += (names.empty() ? "" : ", ") + std::string(r.row);
-    if (r.row != row) continue;
+  for (const auto& [name, values] : Table1Data().rows) {
+    if (name != row) continue;
     std::vector<Target> targets;
-    for (size_t i = 0; i < std::size(kMetrics); ++i) {
-      targets.push_back({kMetrics[i], r.values[i], DefaultTolerance(kMetrics[i])});
-    }
+    for (Metric m : kMetrics) targets.push_back({m, values.at(m), DefaultTolerance(m)});
     return targets;
   }
-  return NotFoundError(fmt::format("unknown Table-1 row \"{}\"; the rows are {}", row, names));
+  return NotFoundError(fmt::format("unknown Table-1 row \"{}\"; the rows are {}", row, fmt::join(TableRows(), ", ")));
 }
 
 double Objective(const ProxyMetrics& metrics, const std::vector<Target>& targets) {
@@ -543,7 +564,7 @@ void DefaultEvaluationResolution(const LayoutParams& params, int* width, int* he
 
 Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::AssetLibrary> library,
                             const EvaluationOptions& options) {
-  if (options.layouts < 1 || options.first < 0) return InvalidArgumentError("evaluation: layouts must be >= 1");
+  if (options.layouts < 1 || options.first < 0) return OptionError(options.layouts < 1 ? "layouts" : "first", "layouts must be >= 1 and first >= 0");
   const auto start = Clock::now();
   LayoutParams at = params;
   if (options.width > 0) at.width = options.width;
@@ -568,14 +589,16 @@ Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::
 }
 
 Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, const OptimizeOptions& options) {
-  if (options.targets.empty()) return InvalidArgumentError("optimizer: no targets");
+  if (options.targets.empty()) return OptionError("targets", "no targets");
   for (const Target& t : options.targets) {
     if (!(t.tolerance > 0)) {
-      return InvalidArgumentError(fmt::format("optimizer: target {}: tolerance must be > 0", MetricName(t.metric)));
+      return OptionError("targets", fmt::format("target {}: tolerance must be > 0", MetricName(t.metric)));
     }
   }
-  if (options.layouts < 1 || options.confirm_layouts < 1 || options.max_rounds < 1) {
-    return InvalidArgumentError("optimizer: layouts, confirm_layouts and max_rounds must be >= 1");
+  for (const auto& [field, value] : {std::pair<const char*, int64_t>{"layouts", options.layouts},
+                                     {"confirm_layouts", options.confirm_layouts},
+                                     {"max_rounds", options.max_rounds}}) {
+    if (value < 1) return OptionError(field, fmt::format("must be >= 1, got {}", value));
   }
   SOLID_ASSIGN_OR_RETURN(const nlopt_algorithm local, AlgorithmByName(options.algorithm, false));
   std::optional<nlopt_algorithm> global;
@@ -587,9 +610,9 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
   s.start = Clock::now();
   s.search_targets = options.targets;
   SOLID_ASSIGN_OR_RETURN(s.dims, options.space.Dimensions(options.start));
-  if (s.dims.empty()) return InvalidArgumentError("optimizer: no free knob");
+  if (s.dims.empty()) return OptionError("space", "no free knob");
   if (local == NLOPT_LN_BOBYQA && s.dims.size() < 2) {
-    return InvalidArgumentError("optimizer: bobyqa needs at least 2 free dimensions");
+    return OptionError("algorithm", "bobyqa needs at least 2 free dimensions");
   }
   OptimizeReport& r = s.report;
   r.dimensions = s.dims;

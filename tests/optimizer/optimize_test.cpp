@@ -358,6 +358,30 @@ TEST(Optimize, UnknownAlgorithmIsAnError) {
   EXPECT_FALSE(TableRowTargets("no-such-row").ok());
 }
 
+// schemas/table1.json holds one row per preset, and its values are the paper's (the random
+// placement and more-objects rows of solid-method.md 4.3, exactly as printed there).
+TEST(Table1, OneRowPerPresetWithThePapersValues) {
+  EXPECT_EQ(TableRows(), render::PresetNames());
+  Result<std::vector<Target>> more = TableRowTargets("more-objects");
+  ASSERT_OK(more.status());
+  const std::vector<std::pair<Metric, double>> expected = {{Metric::kObjectsPerImage, 13.72}, {Metric::kOcclusion, 0.38},
+                                                           {Metric::kSmall, 0.33}, {Metric::kMedium, 0.39},
+                                                           {Metric::kLarge, 0.28}};
+  ASSERT_EQ(more->size(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ((*more)[i].metric, expected[i].first);
+    EXPECT_EQ((*more)[i].value, expected[i].second);
+    EXPECT_EQ((*more)[i].tolerance, DefaultTolerance(expected[i].first));
+  }
+  EXPECT_EQ(DefaultTolerance(Metric::kObjectsPerImage), 0.25);
+  EXPECT_EQ(DefaultTolerance(Metric::kOcclusion), 0.015);
+  EXPECT_EQ(DefaultTolerance(Metric::kLarge), 0.02);
+  Result<std::vector<Target>> random = TableRowTargets("random-placement");
+  ASSERT_OK(random.status());
+  EXPECT_EQ(random->front().value, 8.73);
+  EXPECT_THAT(TableRowTargets("no-such-row").status().message(), HasSubstr("the rows are random-placement, occlusion"));
+}
+
 // `solid optimize` stopped by SIGTERM after its second evaluation: exit 143, the best
 // point so far written as a params file that loads, and the trace of what was done.
 TEST(OptimizeCli, SigtermWritesTheBestPointSoFarAndTheTrace) {

@@ -44,8 +44,8 @@ std::string_view MetricName(Metric metric);
 std::optional<Metric> MetricByName(std::string_view name);
 Estimate MetricOf(const ProxyMetrics& metrics, Metric metric);
 
-// The acceptance of solid-method.md 4.3: count +-0.25, occlusion +-1.5 points, each
-// scale share +-2 points (shares and occlusion are fractions: 0.015, 0.02).
+// The acceptance of solid-method.md 4.3 (schemas/table1.json "tolerances"): count +-0.25,
+// occlusion +-1.5 points, each scale share +-2 points (as fractions: 0.015, 0.02).
 double DefaultTolerance(Metric metric);
 
 struct Target {
@@ -53,6 +53,10 @@ struct Target {
   double value = 0;
   double tolerance = 0;
 };
+
+// The rows of Table 1 (schemas/table1.json, checked by schemas/table1.schema.json), named as
+// their presets, in the paper's order.
+std::vector<std::string> TableRows();
 
 // The targets of a Table-1 row by its preset name (solid-method.md 4.3), with the default
 // tolerances; kNotFound lists the rows.
