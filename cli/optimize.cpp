@@ -32,7 +32,8 @@ const FlagNames kOptimizeFlags = {{"preset", "--preset"},           {"out", "--o
                                   {"target_scale", "--target-scale"}, {"targets", "--target-row"},
                                   {"algorithm", "--algorithm"},     {"global_algorithm", "--global"},
                                   {"layouts", "--layouts"},         {"confirm_layouts", "--confirm-layouts"},
-                                  {"max_rounds", "--rounds"},       {"space", "--space"}};
+                                  {"max_rounds", "--rounds"},       {"space", "--space"},
+                                  {"free", "--free"},               {"fix", "--fix"}};
 
 std::string Percent(Metric m, double v) {
   return m == Metric::kObjectsPerImage ? fmt::format("{:.2f}", v) : fmt::format("{:.1f}%", 100 * v);

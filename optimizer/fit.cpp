@@ -79,8 +79,12 @@ Result<FitReport> Fit(const FitOptions& options) {
   }
   SOLID_ASSIGN_OR_RETURN(o.start, ResolveStart(options, space));
   if (options.space.empty()) space = SearchSpace::FitKnobs(o.start);
-  for (const std::string& k : options.free) SOLID_RETURN_IF_ERROR(space.Free(k, o.start));
-  for (const std::string& k : options.fix) SOLID_RETURN_IF_ERROR(space.Fix(k));
+  for (const std::string& k : options.free) {
+    if (Status s = space.Free(k, o.start); !s.ok()) return OptionError("free", s.message());
+  }
+  for (const std::string& k : options.fix) {
+    if (Status s = space.Fix(k); !s.ok()) return OptionError("fix", s.message());
+  }
   o.space = std::move(space);
 
   SOLID_ASSIGN_OR_RETURN(ResolvedTargets resolved, ResolveTargets(options.targets, o.start));
