@@ -1,16 +1,9 @@
 // JSON parsing with limits, and a JSON Schema (draft 2020-12 subset) validator.
 //
-// The JSON Schemas in schemas/ must be the single source of truth for our JSON files: a key
-// the schema does not know is an error reported with its location, never silently ignored.
-// Keywords outside the supported subset are therefore refused when a schema is compiled
-// rather than skipped when it is applied. Debian 12's one C++ validator, valijson 1.0
-// (libvalijson-dev), stops at draft 7: it ignores prefixItems, so it accepts the string
-// bounds our search-space schema refuses, and fails 8 of 38 draft 2020-12 items/prefixItems
-// cases; it repeats each violation at every enclosing level (7 messages for one wrong type
-// five levels down), ends the process on a schema it cannot use unless built with
-// exceptions, validates our presets at half our speed, and its package pulls in Qt 5, Poco,
-// jsoncpp, picojson, RapidJSON and yaml-cpp (42 packages on our build machine).
-// docs/dependencies.md has the figures; bench/json_schema_vs_valijson re-measures them.
+// The JSON Schemas in schemas/ are the single source of truth for our JSON files: a key the
+// schema does not know is an error with its location, and a keyword outside the subset is
+// refused by Compile, never skipped. Debian 12's valijson 1.0 stops at draft 7 (it ignores
+// prefixItems) and is slower: docs/dependencies.md has the figures, and bench/ the program.
 #pragma once
 
 #include <cstddef>
