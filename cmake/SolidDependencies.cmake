@@ -16,8 +16,11 @@ if(NOT TARGET PkgConfig::XXHASH)
 endif()
 find_package(Threads REQUIRED)
 find_package(draco 1.5 CONFIG REQUIRED)
+# For `solid convert gltf` (third-party glTF/GLB input, the gltf branch), which links it into
+# solid::convert; until then only bench/glb_vs_tinygltf links it. Our own Draco GLBs are read
+# and written by formats/glb.cpp, not by tinygltf (docs/dependencies.md says why).
 find_package(TinyGLTF 2.7 CONFIG REQUIRED)
 # solid::render
 find_package(embree 3.13 CONFIG REQUIRED)
-# solid::optimizer
+# solid::optimizer, through NLopt's C API (nlopt.h of libnlopt-dev; not the C++ wrapper)
 find_package(NLopt 2.7 CONFIG REQUIRED)

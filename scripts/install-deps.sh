@@ -7,11 +7,12 @@ set -euo pipefail
 packages=(
   # toolchain
   g++ cmake ninja-build pkg-config
-  # libraries (DESIGN.md, "Dependencies")
+  # libraries: docs/dependencies.md says what each one does, and where
   libsqlite3-dev libxxhash-dev nlohmann-json3-dev libcli11-dev libfmt-dev
-  libopenimageio-dev libopenexr-dev
-  libembree-dev libdraco-dev libtinygltf-dev libtinyobjloader-dev libmeshoptimizer-dev
-  libnlopt-cxx-dev libtbb-dev
+  libopenimageio-dev
+  libembree-dev libdraco-dev libnlopt-dev libtbb-dev
+  # glTF input (`solid convert gltf`): tinygltf reads it, meshoptimizer decodes EXT_meshopt_compression
+  libtinygltf-dev libmeshoptimizer-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev json-schema-test-suite assimp-testmodels bc jq
   # headless browser of the report test (tests/export/report_test.cpp)

@@ -1,9 +1,9 @@
 // JSON parsing with limits, and a JSON Schema (draft 2020-12 subset) validator.
 //
-// Debian 12 packages no C++ JSON Schema validator, and the JSON Schemas in schemas/ must be
-// the single source of truth for our JSON files: a key the schema does not know is an error
-// reported with its location, never silently ignored. Keywords outside the supported subset
-// are therefore refused when a schema is compiled rather than skipped when it is applied.
+// The JSON Schemas in schemas/ are the single source of truth for our JSON files: a key the
+// schema does not know is an error with its location, and a keyword outside the subset is
+// refused by Compile, never skipped. Debian 12's valijson 1.0 stops at draft 7 (it ignores
+// prefixItems) and is slower: docs/dependencies.md has the figures, and bench/ the program.
 #pragma once
 
 #include <cstddef>
