@@ -231,7 +231,7 @@ struct MetricsFlags {
 };
 
 int RunMetrics(const MetricsFlags& f) {
-  SOLID_ASSIGN_OR_RETURN_EXIT(ProxyMetrics measured, optimizer::DatasetMetrics(f.dataset));
+  SOLID_ASSIGN_OR_RETURN_EXIT(ProxyMetrics measured, DatasetMetrics(f.dataset));
   SOLID_ASSIGN_OR_RETURN_EXIT(const Manifest manifest, ReadManifest(f.dataset));
   const std::string scale_classes =
       fmt::format("{}x{}", manifest.ScaleClassResolution().first, manifest.ScaleClassResolution().second);

@@ -32,9 +32,11 @@ double ShardAreaScale(const fs::path& path) {
   return provenance.ok() ? provenance->manifest.ScaleClassAreaScale() : 1.0;
 }
 
-Result<json> TargetShardSummary(const fs::path& path, MetricsAccumulator* metrics) {
+// With the shard's metrics as `metrics`, classed at area_scale.
+Result<json> TargetShardSummary(const fs::path& path, double area_scale, MetricsAccumulator* metrics) {
   SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
-  SOLID_ASSIGN_OR_RETURN(ShardSummary s, reader.Summarize(metrics));
+  SOLID_ASSIGN_OR_RETURN(ShardSummary s, reader.Summarize());
+  SOLID_ASSIGN_OR_RETURN(*metrics, reader.Metrics(area_scale));
   SOLID_ASSIGN_OR_RETURN(auto meta, reader.Meta());
   json meta_json = json::object();
   for (const auto& [k, v] : meta) meta_json[k] = v;
@@ -125,9 +127,7 @@ Result<json> InspectAssets(const fs::path& root) {
               {"catalog_hash", Hex64(content_hash)}};
 }
 
-}  // namespace
-
-Result<json> Inspect(const fs::path& path) {
+Result<json> InspectPath(const fs::path& path) {
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) {
     if (ParseQueryShardFileName(path.filename().string()).ok()) {
@@ -135,8 +135,8 @@ Result<json> Inspect(const fs::path& path) {
       q["kind"] = "query_shard";
       return q;
     }
-    MetricsAccumulator metrics(ShardAreaScale(path));
-    SOLID_ASSIGN_OR_RETURN(json t, TargetShardSummary(path, &metrics));
+    MetricsAccumulator metrics;
+    SOLID_ASSIGN_OR_RETURN(json t, TargetShardSummary(path, ShardAreaScale(path), &metrics));
     t["kind"] = "target_shard";
     t["metrics"] = metrics.Finish().ToJson();
     return t;
@@ -153,8 +153,8 @@ Result<json> Inspect(const fs::path& path) {
                  {"depth_images", 0}, {"rle_bytes", 0}, {"shard_bytes", 0}};
   for (const ShardFile& f : listing.targets) {
     // Metrics are added per shard only once the shard has been read whole.
-    MetricsAccumulator shard_metrics(manifest.ScaleClassAreaScale());
-    Result<json> s = TargetShardSummary(f.path, &shard_metrics);
+    MetricsAccumulator shard_metrics;
+    Result<json> s = TargetShardSummary(f.path, manifest.ScaleClassAreaScale(), &shard_metrics);
     if (!s.ok()) {
       unreadable.push_back({{"file", f.path.string()}, {"error", s.status().message()}});
       continue;
@@ -197,7 +197,16 @@ Result<json> Inspect(const fs::path& path) {
               {"unexpected_files", unexpected}};
 }
 
-std::string FormatInspection(const json& j) {
+}  // namespace
+
+Result<InspectReport> Inspect(const InspectOptions& options) {
+  if (options.path.empty()) return OptionError("path", "no dataset, assets directory or shard given");
+  SOLID_ASSIGN_OR_RETURN(json summary, InspectPath(options.path));
+  return InspectReport{std::move(summary)};
+}
+
+std::string InspectReport::ToText() const {
+  const json& j = summary;
   std::string out;
   auto line = [&](std::string_view label, const std::string& value) {
     out += fmt::format("  {:<22} {}\n", label, value);

@@ -38,7 +38,8 @@ void ReadEverything(const fs::path& shard) {
   auto reader = ShardReader::Open(shard);
   if (!reader.ok()) return;
   (void)reader->Meta();
-  (void)reader->Summarize(nullptr);
+  (void)reader->Summarize();
+  (void)reader->Metrics(1);
   auto ids = reader->ImageIds();
   if (!ids.ok()) return;
   for (int64_t id : *ids) {
@@ -84,7 +85,7 @@ TEST_F(Corruption, FlippedBytesAreReportedWithTheirFile) {
     bytes[offset] = static_cast<char>(bytes[offset] ^ static_cast<char>(1 + rng() % 255));
     WriteAll(shard_, bytes);
     ReadEverything(shard_);
-    (void)Inspect(dir_.path());
+    (void)Inspect({dir_.path()});
     ValidateOptions options;
     options.decode_images = true;
     ValidationReport report = ValidateDataset(dir_.path(), options);

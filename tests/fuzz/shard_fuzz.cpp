@@ -29,8 +29,8 @@ void ReadTargetShard(const std::filesystem::path& path) {
   solid::Result<solid::ShardReader> reader = solid::ShardReader::Open(path);
   if (!reader.ok()) return;
   (void)reader->Meta();
-  solid::MetricsAccumulator metrics;
-  if (reader->Summarize(&metrics).ok()) (void)metrics.Finish();
+  (void)reader->Summarize();
+  if (auto metrics = reader->Metrics(1); metrics.ok()) (void)metrics->Finish();
   std::vector<std::string> models;
   (void)reader->ForEachInstance(
       [&](const solid::InstanceRecord& in) {

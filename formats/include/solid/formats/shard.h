@@ -24,6 +24,7 @@
 #include <string_view>
 #include <vector>
 
+#include "solid/formats/metrics.h"
 #include "solid/formats/records.h"
 #include "solid/formats/status.h"
 
@@ -100,8 +101,6 @@ struct ShardSummary {
 // What readers do with blob checksums. kVerify costs one XXH64 pass (GB/s).
 enum class ChecksumPolicy { kVerify, kSkip };
 
-class MetricsAccumulator;
-
 class ShardReader {
  public:
   static Result<ShardReader> Open(const std::filesystem::path& path);
@@ -117,9 +116,15 @@ class ShardReader {
   Status VerifyContent(ChecksumPolicy policy = ChecksumPolicy::kVerify);
   Result<ShardCounts> Counts();
 
-  // Sizes and counts from aggregate queries (no blob is read). When `metrics` is
-  // given, every image and visible instance of the shard is added to it.
-  Result<ShardSummary> Summarize(MetricsAccumulator* metrics = nullptr);
+  // Sizes and counts from aggregate queries (no blob is read).
+  Result<ShardSummary> Summarize();
+
+  // The proxy metrics of the shard's rows: every image (in id order) and each of its
+  // visible instances, from the stored areas, classed at `area_scale`
+  // (Manifest::ScaleClassAreaScale). No blob is read. Every reader of a dataset's
+  // metrics (inspect, index, report, DatasetMetrics) merges these per shard, in shard
+  // order, so that they agree to the last bit.
+  Result<MetricsAccumulator> Metrics(double area_scale);
 
   // Image ids in ascending order.
   Result<std::vector<int64_t>> ImageIds();
