@@ -112,8 +112,7 @@ Result<Stats> Gather(Dataset& dataset) {
         },
         ChecksumPolicy::kSkip));
     finish_images_until(INT64_MAX);
-    SOLID_ASSIGN_OR_RETURN(MetricsAccumulator shard_metrics, shard->Metrics(area_scale));
-    s.metrics.Merge(shard_metrics);
+    SOLID_RETURN_IF_ERROR(shard->AddToMetrics(s.metrics));
   }
   return s;
 }

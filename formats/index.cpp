@@ -33,7 +33,7 @@ struct ShardContribution {
   files::FileDigest digest;
   ShardCounts counts;
   std::map<std::pair<std::string, int64_t>, int64_t> occurrences;  // (model, image) -> instances
-  MetricsAccumulator metrics;
+  MetricsAccumulator metrics;  // the dataset's so far, with this shard
 };
 
 // A shard is indexed only when it belongs here and its checksums hold: the index's
@@ -46,8 +46,10 @@ Status CheckBelongs(Reader& reader, const fs::path& path, const Manifest& manife
   return CheckProvenance(found, manifest, shard_index, path.string());
 }
 
-Result<ShardContribution> ReadContribution(const fs::path& path, const Manifest& manifest, int64_t shard_index) {
+Result<ShardContribution> ReadContribution(const fs::path& path, const Manifest& manifest, int64_t shard_index,
+                                           const MetricsAccumulator& metrics) {
   ShardContribution c;
+  c.metrics = metrics;
   SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
   SOLID_RETURN_IF_ERROR(CheckBelongs(reader, path, manifest, shard_index));
   SOLID_ASSIGN_OR_RETURN(c.counts, reader.Counts());
@@ -70,7 +72,7 @@ Result<ShardContribution> ReadContribution(const fs::path& path, const Manifest&
         return Status::Ok();
       },
       ChecksumPolicy::kSkip));
-  SOLID_ASSIGN_OR_RETURN(c.metrics, reader.Metrics(manifest.ScaleClassAreaScale()));
+  SOLID_RETURN_IF_ERROR(reader.AddToMetrics(c.metrics));
   SOLID_ASSIGN_OR_RETURN(c.digest, files::DigestFile(path));
   return c;
 }
@@ -116,7 +118,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
   int64_t total = static_cast<int64_t>(listing.targets.size() + listing.queries.size()), done = 0;
   for (const ShardFile& file : listing.targets) {
     if (progress) progress(done++, total);
-    Result<ShardContribution> c = ReadContribution(file.path, manifest, file.index);
+    Result<ShardContribution> c = ReadContribution(file.path, manifest, file.index, metrics);
     if (!c.ok()) {
       report.skipped.push_back(c.status());
       continue;
@@ -137,7 +139,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
       m.instances += count;
       ++m.images;
     }
-    metrics.Merge(c->metrics);
+    metrics = c->metrics;
     ++report.shards;
     report.images += c->counts.images;
     report.instances += c->counts.instances;

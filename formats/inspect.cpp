@@ -32,14 +32,16 @@ double ShardAreaScale(const fs::path& path) {
   return provenance.ok() ? provenance->manifest.ScaleClassAreaScale() : 1.0;
 }
 
-// With the shard's metrics as `metrics`, classed at area_scale.
-Result<json> TargetShardSummary(const fs::path& path, double area_scale, MetricsAccumulator* metrics) {
+// The shard's rows are added to `metrics` only once the shard has been read whole.
+Result<json> TargetShardSummary(const fs::path& path, MetricsAccumulator* metrics) {
   SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
   SOLID_ASSIGN_OR_RETURN(ShardSummary s, reader.Summarize());
-  SOLID_ASSIGN_OR_RETURN(*metrics, reader.Metrics(area_scale));
+  MetricsAccumulator with_shard = *metrics;
+  SOLID_RETURN_IF_ERROR(reader.AddToMetrics(with_shard));
   SOLID_ASSIGN_OR_RETURN(auto meta, reader.Meta());
   json meta_json = json::object();
   for (const auto& [k, v] : meta) meta_json[k] = v;
+  *metrics = with_shard;
   return json{{"file", path.string()},
               {"bytes", FileSize(path)},
               {"images", s.counts.images},
@@ -135,8 +137,8 @@ Result<json> InspectPath(const fs::path& path) {
       q["kind"] = "query_shard";
       return q;
     }
-    MetricsAccumulator metrics;
-    SOLID_ASSIGN_OR_RETURN(json t, TargetShardSummary(path, ShardAreaScale(path), &metrics));
+    MetricsAccumulator metrics(ShardAreaScale(path));
+    SOLID_ASSIGN_OR_RETURN(json t, TargetShardSummary(path, &metrics));
     t["kind"] = "target_shard";
     t["metrics"] = metrics.Finish().ToJson();
     return t;
@@ -152,14 +154,11 @@ Result<json> InspectPath(const fs::path& path) {
   json totals = {{"images", 0}, {"instances", 0}, {"visible_instances", 0}, {"image_bytes", 0},
                  {"depth_images", 0}, {"rle_bytes", 0}, {"shard_bytes", 0}};
   for (const ShardFile& f : listing.targets) {
-    // Metrics are added per shard only once the shard has been read whole.
-    MetricsAccumulator shard_metrics;
-    Result<json> s = TargetShardSummary(f.path, manifest.ScaleClassAreaScale(), &shard_metrics);
+    Result<json> s = TargetShardSummary(f.path, &metrics);
     if (!s.ok()) {
       unreadable.push_back({{"file", f.path.string()}, {"error", s.status().message()}});
       continue;
     }
-    metrics.Merge(shard_metrics);
     for (const char* k : {"images", "instances", "visible_instances", "image_bytes", "depth_images", "rle_bytes"}) {
       totals[k] = totals[k].get<int64_t>() + (*s)[k].get<int64_t>();
     }

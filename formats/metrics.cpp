@@ -106,8 +106,7 @@ Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root) {
   MetricsAccumulator metrics(manifest.ScaleClassAreaScale());
   for (const ShardFile& file : listing.targets) {
     SOLID_ASSIGN_OR_RETURN(ShardReader shard, ShardReader::Open(file.path));
-    SOLID_ASSIGN_OR_RETURN(MetricsAccumulator shard_metrics, shard.Metrics(manifest.ScaleClassAreaScale()));
-    metrics.Merge(shard_metrics);
+    SOLID_RETURN_IF_ERROR(shard.AddToMetrics(metrics));
   }
   return metrics.Finish();
 }

@@ -845,8 +845,7 @@ Result<ShardSummary> ShardReader::Summarize() {
   return summary;
 }
 
-Result<MetricsAccumulator> ShardReader::Metrics(double area_scale) {
-  MetricsAccumulator metrics(area_scale);
+Status ShardReader::AddToMetrics(MetricsAccumulator& metrics) {
   Db& db = impl_->db;
   SOLID_ASSIGN_OR_RETURN(Stmt per_image, Stmt::Prepare(db, "SELECT count(n.instance_id), ifnull(sum(n.visible_area > 0), 0) "
                                                            "FROM images i LEFT JOIN instances n USING (image_id) "
@@ -866,7 +865,7 @@ Result<MetricsAccumulator> ShardReader::Metrics(double area_scale) {
     SOLID_ASSIGN_OR_RETURN(int64_t full_area, r.Int(1, "full_area", visible_area));
     metrics.AddVisibleInstance(static_cast<uint64_t>(visible_area), static_cast<uint64_t>(full_area));
   }
-  return metrics;
+  return Status::Ok();
 }
 
 Result<std::vector<int64_t>> ShardReader::ImageIds() {

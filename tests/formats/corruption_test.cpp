@@ -14,6 +14,7 @@
 #include "solid/formats/catalog.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/inspect.h"
+#include "solid/formats/metrics.h"
 #include "solid/formats/shard.h"
 #include "solid/formats/validate.h"
 
@@ -39,7 +40,8 @@ void ReadEverything(const fs::path& shard) {
   if (!reader.ok()) return;
   (void)reader->Meta();
   (void)reader->Summarize();
-  (void)reader->Metrics(1);
+  MetricsAccumulator metrics;
+  (void)reader->AddToMetrics(metrics);
   auto ids = reader->ImageIds();
   if (!ids.ok()) return;
   for (int64_t id : *ids) {

@@ -30,7 +30,8 @@ void ReadTargetShard(const std::filesystem::path& path) {
   if (!reader.ok()) return;
   (void)reader->Meta();
   (void)reader->Summarize();
-  if (auto metrics = reader->Metrics(1); metrics.ok()) (void)metrics->Finish();
+  solid::MetricsAccumulator metrics;
+  if (reader->AddToMetrics(metrics).ok()) (void)metrics.Finish();
   std::vector<std::string> models;
   (void)reader->ForEachInstance(
       [&](const solid::InstanceRecord& in) {

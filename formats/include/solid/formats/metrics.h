@@ -64,7 +64,7 @@ class MetricsAccumulator {
 };
 
 // The proxy metrics of a rendered dataset: every target shard present, in shard order
-// (ShardReader::Metrics merged), classed at the manifest's scale-class resolution
+// (ShardReader::AddToMetrics), classed at the manifest's scale-class resolution
 // (Manifest::ScaleClassAreaScale), from the stored areas (validate checks them against the
 // masks). No image is read. The one computation behind inspect, index, report and
 // `solid metrics`. Errors name the shard.

@@ -24,7 +24,6 @@
 #include <string_view>
 #include <vector>
 
-#include "solid/formats/metrics.h"
 #include "solid/formats/records.h"
 #include "solid/formats/status.h"
 
@@ -98,6 +97,8 @@ struct ShardSummary {
   int64_t visible_instances = 0, distinct_models = 0;
 };
 
+class MetricsAccumulator;
+
 // What readers do with blob checksums. kVerify costs one XXH64 pass (GB/s).
 enum class ChecksumPolicy { kVerify, kSkip };
 
@@ -119,12 +120,13 @@ class ShardReader {
   // Sizes and counts from aggregate queries (no blob is read).
   Result<ShardSummary> Summarize();
 
-  // The proxy metrics of the shard's rows: every image (in id order) and each of its
-  // visible instances, from the stored areas, classed at `area_scale`
-  // (Manifest::ScaleClassAreaScale). No blob is read. Every reader of a dataset's
-  // metrics (inspect, index, report, DatasetMetrics) merges these per shard, in shard
-  // order, so that they agree to the last bit.
-  Result<MetricsAccumulator> Metrics(double area_scale);
+  // Adds the shard's rows to `metrics`: every image (in id order) and each of its visible
+  // instances, from the stored areas. No blob is read. Every reader of a dataset's metrics
+  // (inspect, index, report, DatasetMetrics) adds its shards so, in shard order, to one
+  // accumulator of the manifest's area scale: they agree to the last bit, with each other
+  // and with the optimizer's evaluation of the same layouts. On error some rows may have
+  // been added: a caller that skips a damaged shard adds it to a copy first.
+  Status AddToMetrics(MetricsAccumulator& metrics);
 
   // Image ids in ascending order.
   Result<std::vector<int64_t>> ImageIds();
