@@ -57,11 +57,8 @@ Command AddExport(CLI::App& app) {
                  StopSignalName(), result.status().message(), CommandLine());
       return StopExitCode();
     }
-    SOLID_ASSIGN_OR_RETURN_EXIT(exporters::CocoExportReport r, std::move(result));
-    fmt::print("{}: {} images, {} annotations in {} categor{} ({} instances with an empty mask skipped), "
-               "{:.1f} MB of images, {:.2f} s\n",
-               (o->out_dir / "annotations.json").string(), r.images, r.annotations, r.categories,
-               r.categories == 1 ? "y" : "ies", r.skipped_invisible, r.image_bytes / 1e6, r.seconds);
+    if (!result.ok()) return Fail(result.status(), {{"link_from", "--link-from"}});
+    fmt::print("{}", result->ToText());
     return kExitOk;
   };
 }
@@ -76,14 +73,17 @@ Command AddReport(CLI::App& app) {
   cmd->add_option("--target-row", o->target_row,
                   "Compare with this Table-1 row (a preset name), or none; default: the preset the dataset's "
                   "params equal, if any");
-  cmd->add_option("--samples", o->samples, "Sample images shown")->capture_default_str()->check(CLI::Range(0, 1000));
+  cmd->add_option("--samples", o->samples, "Sample images shown")->capture_default_str()->check(CLI::Range(0, exporters::kMaxReportSamples));
   cmd->add_option("--query-models", o->query_models, "Query views shown per sample")
       ->capture_default_str()
-      ->check(CLI::Range(0, 64));
+      ->check(CLI::Range(0, exporters::kMaxReportQueryModels));
   return [o]() -> int {
-    SOLID_ASSIGN_OR_RETURN_EXIT(exporters::ReportSummary r, exporters::WriteReport(*o));
-    fmt::print("{}: {} images, {} instances, {} samples, {}, {:.1f} MB\n", o->out.string(), r.images, r.instances,
-               r.samples, r.target_row.empty() ? "no targets" : "targets of " + r.target_row, r.bytes / 1e6);
+    Result<exporters::ReportSummary> report = exporters::WriteReport(*o);
+    if (!report.ok()) {
+      return Fail(report.status(),
+                  {{"target_row", "--target-row"}, {"samples", "--samples"}, {"query_models", "--query-models"}});
+    }
+    fmt::print("{}", report->ToText());
     return kExitOk;
   };
 }

@@ -2,11 +2,7 @@
 
 #include <fmt/format.h>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <chrono>
-#include <cstring>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <system_error>
@@ -31,57 +27,6 @@ std::string_view Extension(ImageFormat f) {
 
 nlohmann::json BoxJson(const rle::Box& b) { return nlohmann::json::array({b.x, b.y, b.w, b.h}); }
 
-// annotations.json, written through a buffer into a temporary sibling; Publish renames
-// it into place. Destroyed unpublished, it removes the temporary.
-class JsonStream {
- public:
-  static Result<JsonStream> Open(const fs::path& final_path) {
-    JsonStream s;
-    s.final_ = final_path;
-    s.temp_ = files::TempPathFor(final_path);
-    s.fd_ = ::open(s.temp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (s.fd_ < 0) {
-      return IoError(fmt::format("{}: create a temporary sibling: {}", final_path.string(), std::strerror(errno)));
-    }
-    return s;
-  }
-  JsonStream(JsonStream&& o) noexcept
-      : final_(std::move(o.final_)), temp_(std::exchange(o.temp_, {})), fd_(std::exchange(o.fd_, -1)),
-        buffer_(std::move(o.buffer_)), published_(o.published_) {}
-  ~JsonStream() {
-    if (fd_ >= 0) ::close(fd_);
-    std::error_code ec;
-    if (!published_ && !temp_.empty()) fs::remove(temp_, ec);
-  }
-
-  Status Write(std::string_view text) {
-    buffer_ += text;
-    return buffer_.size() >= (1 << 20) ? Flush() : Status::Ok();
-  }
-  Status Publish() {
-    SOLID_RETURN_IF_ERROR(Flush());
-    if (::close(std::exchange(fd_, -1)) != 0) {
-      return IoError(fmt::format("{}: close: {}", final_.string(), std::strerror(errno)));
-    }
-    SOLID_RETURN_IF_ERROR(files::SyncAndPublish(temp_, final_, /*replace=*/true));
-    published_ = true;
-    return Status::Ok();
-  }
-
- private:
-  JsonStream() = default;
-  Status Flush() {
-    SOLID_RETURN_IF_ERROR(files::WriteAll(fd_, {reinterpret_cast<const uint8_t*>(buffer_.data()), buffer_.size()},
-                                          final_));
-    buffer_.clear();
-    return Status::Ok();
-  }
-  fs::path final_, temp_;
-  int fd_ = -1;
-  std::string buffer_;
-  bool published_ = false;
-};
-
 // Removed first: the old file may be a hard link into another export.
 Status WriteBytes(const fs::path& path, const std::vector<uint8_t>& bytes) {
   std::error_code ec;
@@ -93,13 +38,18 @@ Status LinkImage(const fs::path& from, const fs::path& to, const ImageRecord& im
   std::error_code ec;
   if (fs::equivalent(from, to, ec)) return Status::Ok();
   const uintmax_t size = fs::file_size(from, ec);
-  if (ec) return NotFoundError(fmt::format("{}: {} (--link-from must be an export of this dataset)", from.string(), ec.message()));
+  if (ec) {
+    return OptionError("link_from", fmt::format("{}: {}: not an export of this dataset", from.string(), ec.message()),
+                       StatusCode::kNotFound);
+  }
   Result<std::vector<uint8_t>> bytes =
       size == image.image.size() ? files::ReadFile(from, size) : Result<std::vector<uint8_t>>(std::vector<uint8_t>{});
   if (!bytes.ok()) return bytes.status();
   if (*bytes != image.image) {
-    return CorruptError(fmt::format("{}: differs from image {} of {}: --link-from must be an export of this dataset",
-                                    from.string(), image.image_id, shard.string()));
+    return OptionError("link_from",
+                       fmt::format("{}: differs from image {} of {}: not an export of this dataset", from.string(),
+                                   image.image_id, shard.string()),
+                       StatusCode::kCorrupt);
   }
   fs::remove(to, ec);
   fs::create_hard_link(from, to, ec);
@@ -140,20 +90,38 @@ Status Stopped(const CocoExportOptions& options, int64_t images, int64_t planned
 
 }  // namespace
 
+nlohmann::json CocoExportReport::ToJson() const {
+  return {{"annotations_file", annotations_file.string()},
+          {"images", images},
+          {"annotations", annotations},
+          {"categories", categories},
+          {"skipped_invisible", skipped_invisible},
+          {"image_bytes", image_bytes},
+          {"seconds", seconds}};
+}
+
+std::string CocoExportReport::ToText() const {
+  return fmt::format("{}: {} images, {} annotations in {} categor{} ({} instances with an empty mask skipped), "
+                     "{:.1f} MB of images, {:.2f} s\n",
+                     annotations_file.string(), images, annotations, categories, categories == 1 ? "y" : "ies",
+                     skipped_invisible, static_cast<double>(image_bytes) / 1e6, seconds);
+}
+
 Result<CocoExportReport> ExportCoco(const CocoExportOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   if (options.images == CocoImages::kLink && options.link_from.empty()) {
-    return InvalidArgumentError(
-        "--images link: the images live inside the shards, so there is nothing to link to but an earlier export: "
-        "give --link-from DIR (or use --images copy)");
+    return OptionError("link_from", "needed to link the images: they live inside the shards, so there is "
+                                    "nothing to link to but an earlier export (or copy them)");
   }
+  if (options.dataset.empty()) return OptionError("dataset", "no dataset directory given");
+  if (options.out_dir.empty()) return OptionError("out_dir", "no output directory given");
   SOLID_ASSIGN_OR_RETURN(Dataset dataset, Dataset::Open(options.dataset));
   const Manifest& manifest = dataset.manifest();
   const fs::path images_dir = options.out_dir / "images";
   std::error_code ec;
   fs::create_directories(images_dir, ec);
   if (ec) return IoError(fmt::format("{}: cannot create: {}", images_dir.string(), ec.message()));
-  SOLID_ASSIGN_OR_RETURN(JsonStream out, JsonStream::Open(options.out_dir / "annotations.json"));
+  SOLID_ASSIGN_OR_RETURN(files::AtomicFileWriter out, files::AtomicFileWriter::Create(options.out_dir / "annotations.json"));
 
   const nlohmann::json info = {{"description", fmt::format("solid dataset {}", options.dataset.string())},
                                {"version", manifest.generator_version},
@@ -162,6 +130,7 @@ Result<CocoExportReport> ExportCoco(const CocoExportOptions& options) {
   SOLID_RETURN_IF_ERROR(out.Write(fmt::format("{{\"info\": {},\n\"licenses\": [],\n\"images\": [", info.dump())));
 
   CocoExportReport report;
+  report.annotations_file = options.out_dir / "annotations.json";
   // Pass 1, images: the shards are read in id order, one image at a time.
   for (const ShardFile& file : dataset.shards().targets) {
     SOLID_ASSIGN_OR_RETURN(ShardReader * shard, dataset.Shard(file.index));
@@ -222,7 +191,7 @@ Result<CocoExportReport> ExportCoco(const CocoExportOptions& options) {
   }
   report.categories = static_cast<int64_t>(categories.size());
   SOLID_RETURN_IF_ERROR(out.Write(fmt::format("],\n\"categories\": {}}}\n", categories.dump())));
-  SOLID_RETURN_IF_ERROR(out.Publish());
+  SOLID_RETURN_IF_ERROR(out.Commit());
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }

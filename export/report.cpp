@@ -91,7 +91,6 @@ Result<Stats> Gather(Dataset& dataset) {
     int64_t all = 0, visible = 0;
     auto finish_images_until = [&](int64_t image_id) {
       for (; next < ids.size() && ids[next] < image_id; ++next) {
-        s.metrics.AddImageCounts(all, visible);
         if (s.objects.size() <= static_cast<size_t>(visible)) s.objects.resize(visible + 1);
         ++s.objects[visible];
         s.image_ids.push_back(ids[next]);
@@ -105,7 +104,6 @@ Result<Stats> Gather(Dataset& dataset) {
           ++s.instances;
           if (in.visible_area == 0) return Status::Ok();
           ++visible;
-          s.metrics.AddVisibleInstance(in.visible_area, in.full_area);
           if (in.occlusion) ++s.occlusion[Bin(*in.occlusion, 0, 1, kOcclusionBins)];
           ++s.scale[static_cast<int>(ScaleClassOfArea(in.visible_area, area_scale))];
           ++s.views[Bin(in.view_elevation, -std::numbers::pi / 2, std::numbers::pi / 2, kElevationBins)]
@@ -114,6 +112,7 @@ Result<Stats> Gather(Dataset& dataset) {
         },
         ChecksumPolicy::kSkip));
     finish_images_until(INT64_MAX);
+    SOLID_RETURN_IF_ERROR(shard->AddToMetrics(s.metrics));
   }
   return s;
 }
@@ -342,21 +341,45 @@ figcaption{font-size:12px;color:#5b6577}.queries{display:flex;flex-wrap:wrap;gap
 
 }  // namespace
 
+nlohmann::json ReportSummary::ToJson() const {
+  return {{"out", out.string()},   {"images", images},
+          {"instances", instances}, {"samples", samples},
+          {"target_row", target_row}, {"bytes", bytes},
+          {"metrics", metrics.ToJson()}};
+}
+
+std::string ReportSummary::ToText() const {
+  return fmt::format("{}: {} images, {} instances, {} samples, {}, {:.1f} MB\n", out.string(), images, instances,
+                     samples, target_row.empty() ? "no targets" : "targets of " + target_row,
+                     static_cast<double>(bytes) / 1e6);
+}
+
 Result<ReportSummary> WriteReport(const ReportOptions& options) {
-  if (options.samples < 0) return InvalidArgumentError("--samples: must not be negative");
+  if (options.dataset.empty()) return OptionError("dataset", "no dataset directory given");
+  if (options.out.empty()) return OptionError("out", "no .html file given");
+  if (options.samples < 0 || options.samples > kMaxReportSamples) {
+    return OptionError("samples", fmt::format("{} is not in [0, {}]", options.samples, kMaxReportSamples));
+  }
+  if (options.query_models < 0 || options.query_models > kMaxReportQueryModels) {
+    return OptionError("query_models",
+                       fmt::format("{} is not in [0, {}]", options.query_models, kMaxReportQueryModels));
+  }
   SOLID_ASSIGN_OR_RETURN(Dataset dataset, Dataset::Open(options.dataset));
   const Manifest& m = dataset.manifest();
   SOLID_ASSIGN_OR_RETURN(Stats stats, Gather(dataset));
   const ProxyMetrics metrics = stats.metrics.Finish();
 
   ReportSummary summary;
+  summary.out = options.out;
+  summary.metrics = metrics;
   summary.images = metrics.images;
   summary.instances = stats.instances;
   summary.target_row = options.target_row == "none" ? "" : options.target_row.empty() ? DetectPreset(m) : options.target_row;
   std::vector<optimizer::Comparison> comparisons;
   if (!summary.target_row.empty()) {
-    SOLID_ASSIGN_OR_RETURN(std::vector<optimizer::Target> targets, optimizer::TableRowTargets(summary.target_row));
-    comparisons = optimizer::CompareWithTargets(metrics, targets);
+    Result<std::vector<optimizer::Target>> targets = optimizer::TableRowTargets(summary.target_row);
+    if (!targets.ok()) return OptionError("target_row", targets.status().message(), targets.status().code());
+    comparisons = optimizer::CompareWithTargets(metrics, *targets);
   }
 
   std::string html = fmt::format(

@@ -163,11 +163,65 @@ Status SyncAndPublish(const std::filesystem::path& temp, const std::filesystem::
   return s;
 }
 
-Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
-  SOLID_ASSIGN_OR_RETURN(std::filesystem::path temp, WriteTemporary(path, bytes));
-  Status s = Publish(temp, path, /*replace=*/true);
-  if (!s.ok()) ::unlink(temp.c_str());
+Result<AtomicFileWriter> AtomicFileWriter::Create(const std::filesystem::path& final_path) {
+  AtomicFileWriter w;
+  w.final_ = final_path;
+  w.temp_ = TempPathFor(final_path);
+  w.fd_ = ::open(w.temp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (w.fd_ < 0) return WriteErrnoStatus("create a temporary sibling", final_path, errno);
+  return w;
+}
+
+AtomicFileWriter::AtomicFileWriter(AtomicFileWriter&& o) noexcept
+    : final_(std::move(o.final_)), temp_(std::exchange(o.temp_, {})), fd_(std::exchange(o.fd_, -1)),
+      buffer_(std::move(o.buffer_)) {}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!temp_.empty()) ::unlink(temp_.c_str());
+}
+
+Status AtomicFileWriter::Write(std::span<const uint8_t> bytes) {
+  if (temp_.empty()) return InternalError(final_.string() + ": written after an error or its commit");
+  // Small writes gather into writes of about 1 MiB; a large one goes out as it is.
+  constexpr size_t kBuffer = 1 << 20;
+  if (buffer_.size() + bytes.size() < kBuffer) {
+    buffer_.insert(buffer_.end(), bytes.begin(), bytes.end());
+    return Status::Ok();
+  }
+  return Flush(bytes);
+}
+
+Status AtomicFileWriter::Write(std::string_view text) {
+  return Write({reinterpret_cast<const uint8_t*>(text.data()), text.size()});
+}
+
+Status AtomicFileWriter::Flush(std::span<const uint8_t> more) {
+  Status s = WriteAll(fd_, buffer_, final_);
+  if (s.ok()) s = WriteAll(fd_, more, final_);
+  buffer_.clear();
+  if (!s.ok()) {
+    ::close(std::exchange(fd_, -1));
+    ::unlink(std::exchange(temp_, {}).c_str());
+  }
   return s;
+}
+
+Status AtomicFileWriter::Commit() {
+  if (temp_.empty()) return InternalError(final_.string() + ": committed after an error or its commit");
+  SOLID_RETURN_IF_ERROR(Flush());
+  Status s = ::fsync(fd_) == 0 ? Status::Ok() : WriteErrnoStatus("fsync", final_, errno);
+  if (::close(std::exchange(fd_, -1)) != 0 && s.ok()) s = WriteErrnoStatus("close", final_, errno);
+  if (s.ok()) s = Publish(temp_, final_, /*replace=*/true);
+  // Renamed, the temporary's name is free; failed, it is removed.
+  ::unlink(std::exchange(temp_, {}).c_str());
+  return s;
+}
+
+Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes) {
+  SOLID_ASSIGN_OR_RETURN(AtomicFileWriter writer, AtomicFileWriter::Create(path));
+  SOLID_RETURN_IF_ERROR(writer.Write(bytes));
+  return writer.Commit();
 }
 
 Status WriteFilesAtomically(std::span<const FileContent> outputs) {

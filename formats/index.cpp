@@ -33,8 +33,7 @@ struct ShardContribution {
   files::FileDigest digest;
   ShardCounts counts;
   std::map<std::pair<std::string, int64_t>, int64_t> occurrences;  // (model, image) -> instances
-  std::vector<std::pair<int64_t, int64_t>> image_counts;           // (instances, visible) per image
-  std::vector<std::pair<uint64_t, uint64_t>> visible_areas;         // (visible, full) per visible instance
+  MetricsAccumulator metrics;  // the dataset's so far, with this shard
 };
 
 // A shard is indexed only when it belongs here and its checksums hold: the index's
@@ -47,39 +46,33 @@ Status CheckBelongs(Reader& reader, const fs::path& path, const Manifest& manife
   return CheckProvenance(found, manifest, shard_index, path.string());
 }
 
-Result<ShardContribution> ReadContribution(const fs::path& path, const Manifest& manifest, int64_t shard_index) {
+Result<ShardContribution> ReadContribution(const fs::path& path, const Manifest& manifest, int64_t shard_index,
+                                           const MetricsAccumulator& metrics) {
   ShardContribution c;
+  c.metrics = metrics;
   SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
   SOLID_RETURN_IF_ERROR(CheckBelongs(reader, path, manifest, shard_index));
   SOLID_ASSIGN_OR_RETURN(c.counts, reader.Counts());
   SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, reader.ImageIds());
   const int64_t first = shard_index * manifest.shard_size;
   const int64_t end = std::min(first + manifest.shard_size, manifest.images);
-  std::map<int64_t, std::pair<int64_t, int64_t>> per_image;
   for (int64_t id : ids) {
     if (id < first || id >= end) {
       return CorruptError(fmt::format("{}: images row {}: image_id: outside shard {}'s range [{}, {})", path.string(),
                                       id, shard_index, first, end));
     }
-    per_image[id] = {0, 0};
   }
   SOLID_RETURN_IF_ERROR(reader.ForEachInstance(
       [&](const InstanceRecord& in) -> Status {
-        auto it = per_image.find(in.image_id);
-        if (it == per_image.end()) {
+        if (!std::binary_search(ids.begin(), ids.end(), in.image_id)) {
           return CorruptError(fmt::format("{}: instance of image {} which the shard does not hold", path.string(),
                                           in.image_id));
         }
-        ++it->second.first;
         ++c.occurrences[{in.model_key, in.image_id}];
-        if (in.visible_area > 0) {
-          ++it->second.second;
-          c.visible_areas.emplace_back(in.visible_area, in.full_area);
-        }
         return Status::Ok();
       },
       ChecksumPolicy::kSkip));
-  for (const auto& [id, counts] : per_image) c.image_counts.push_back(counts);
+  SOLID_RETURN_IF_ERROR(reader.AddToMetrics(c.metrics));
   SOLID_ASSIGN_OR_RETURN(c.digest, files::DigestFile(path));
   return c;
 }
@@ -125,7 +118,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
   int64_t total = static_cast<int64_t>(listing.targets.size() + listing.queries.size()), done = 0;
   for (const ShardFile& file : listing.targets) {
     if (progress) progress(done++, total);
-    Result<ShardContribution> c = ReadContribution(file.path, manifest, file.index);
+    Result<ShardContribution> c = ReadContribution(file.path, manifest, file.index, metrics);
     if (!c.ok()) {
       report.skipped.push_back(c.status());
       continue;
@@ -146,8 +139,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
       m.instances += count;
       ++m.images;
     }
-    for (const auto& [instances, visible] : c->image_counts) metrics.AddImageCounts(instances, visible);
-    for (const auto& [visible, full] : c->visible_areas) metrics.AddVisibleInstance(visible, full);
+    metrics = c->metrics;
     ++report.shards;
     report.images += c->counts.images;
     report.instances += c->counts.instances;
@@ -266,6 +258,30 @@ Result<IndexReport> BuildIndex(const fs::path& root, const ProgressCallback& pro
     return r;
   }();
   if (!report.ok()) fs::remove(temp, ec);
+  return report;
+}
+
+nlohmann::json IndexReport::ToJson() const {
+  nlohmann::json skipped_json = nlohmann::json::array(), missing = nlohmann::json::array();
+  for (const Status& s : skipped) skipped_json.push_back(s.message());
+  for (const auto& [first, last] : missing_shards) missing.push_back({first, last});
+  nlohmann::json j = {{"shards", shards},          {"query_shards", query_shards}, {"images", images},
+                      {"instances", instances},    {"models", models},             {"query_views", query_views},
+                      {"metrics", metrics.ToJson()}, {"skipped", skipped_json},   {"missing_shards", missing}};
+  if (!adopted.empty()) j["adopted"] = adopted;
+  return j;
+}
+
+Result<IndexReport> Index(const IndexOptions& options) {
+  if (options.dataset.empty()) return OptionError("dataset", "no dataset directory given");
+  std::string adopted;
+  std::error_code ec;
+  if (options.adopt && !fs::exists(DatasetPaths(options.dataset).manifest(), ec)) {
+    SOLID_ASSIGN_OR_RETURN(AdoptReport adoption, AdoptManifest(options.dataset));
+    adopted = adoption.Summary(options.dataset);
+  }
+  SOLID_ASSIGN_OR_RETURN(IndexReport report, BuildIndex(options.dataset, options.progress));
+  report.adopted = std::move(adopted);
   return report;
 }
 

@@ -32,12 +32,16 @@ double ShardAreaScale(const fs::path& path) {
   return provenance.ok() ? provenance->manifest.ScaleClassAreaScale() : 1.0;
 }
 
+// The shard's rows are added to `metrics` only once the shard has been read whole.
 Result<json> TargetShardSummary(const fs::path& path, MetricsAccumulator* metrics) {
   SOLID_ASSIGN_OR_RETURN(ShardReader reader, ShardReader::Open(path));
-  SOLID_ASSIGN_OR_RETURN(ShardSummary s, reader.Summarize(metrics));
+  SOLID_ASSIGN_OR_RETURN(ShardSummary s, reader.Summarize());
+  MetricsAccumulator with_shard = *metrics;
+  SOLID_RETURN_IF_ERROR(reader.AddToMetrics(with_shard));
   SOLID_ASSIGN_OR_RETURN(auto meta, reader.Meta());
   json meta_json = json::object();
   for (const auto& [k, v] : meta) meta_json[k] = v;
+  *metrics = with_shard;
   return json{{"file", path.string()},
               {"bytes", FileSize(path)},
               {"images", s.counts.images},
@@ -125,9 +129,7 @@ Result<json> InspectAssets(const fs::path& root) {
               {"catalog_hash", Hex64(content_hash)}};
 }
 
-}  // namespace
-
-Result<json> Inspect(const fs::path& path) {
+Result<json> InspectPath(const fs::path& path) {
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) {
     if (ParseQueryShardFileName(path.filename().string()).ok()) {
@@ -152,14 +154,11 @@ Result<json> Inspect(const fs::path& path) {
   json totals = {{"images", 0}, {"instances", 0}, {"visible_instances", 0}, {"image_bytes", 0},
                  {"depth_images", 0}, {"rle_bytes", 0}, {"shard_bytes", 0}};
   for (const ShardFile& f : listing.targets) {
-    // Metrics are added per shard only once the shard has been read whole.
-    MetricsAccumulator shard_metrics(manifest.ScaleClassAreaScale());
-    Result<json> s = TargetShardSummary(f.path, &shard_metrics);
+    Result<json> s = TargetShardSummary(f.path, &metrics);
     if (!s.ok()) {
       unreadable.push_back({{"file", f.path.string()}, {"error", s.status().message()}});
       continue;
     }
-    metrics.Merge(shard_metrics);
     for (const char* k : {"images", "instances", "visible_instances", "image_bytes", "depth_images", "rle_bytes"}) {
       totals[k] = totals[k].get<int64_t>() + (*s)[k].get<int64_t>();
     }
@@ -197,7 +196,16 @@ Result<json> Inspect(const fs::path& path) {
               {"unexpected_files", unexpected}};
 }
 
-std::string FormatInspection(const json& j) {
+}  // namespace
+
+Result<InspectReport> Inspect(const InspectOptions& options) {
+  if (options.path.empty()) return OptionError("path", "no dataset, assets directory or shard given");
+  SOLID_ASSIGN_OR_RETURN(json summary, InspectPath(options.path));
+  return InspectReport{std::move(summary)};
+}
+
+std::string InspectReport::ToText() const {
+  const json& j = summary;
   std::string out;
   auto line = [&](std::string_view label, const std::string& value) {
     out += fmt::format("  {:<22} {}\n", label, value);

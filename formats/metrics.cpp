@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "solid/formats/dataset.h"
+#include "solid/formats/shard.h"
 #include "solid/formats/status.h"
 
 namespace solid {
@@ -96,6 +98,17 @@ nlohmann::json ProxyMetrics::ToJson() const {
           {"objects_per_image", est(objects_per_image)},
           {"occlusion", est(occlusion)},
           {"scale", {{"small", est(small)}, {"medium", est(medium)}, {"large", est(large)}}}};
+}
+
+Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root) {
+  SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(dataset_root));
+  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(dataset_root));
+  MetricsAccumulator metrics(manifest.ScaleClassAreaScale());
+  for (const ShardFile& file : listing.targets) {
+    SOLID_ASSIGN_OR_RETURN(ShardReader shard, ShardReader::Open(file.path));
+    SOLID_RETURN_IF_ERROR(shard.AddToMetrics(metrics));
+  }
+  return metrics.Finish();
 }
 
 }  // namespace solid

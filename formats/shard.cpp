@@ -831,7 +831,7 @@ Result<ShardCounts> ShardReader::Counts() {
   return counts;
 }
 
-Result<ShardSummary> ShardReader::Summarize(MetricsAccumulator* metrics) {
+Result<ShardSummary> ShardReader::Summarize() {
   ShardSummary summary;
   Db& db = impl_->db;
   SOLID_ASSIGN_OR_RETURN(summary.counts, Counts());
@@ -842,14 +842,18 @@ Result<ShardSummary> ShardReader::Summarize(MetricsAccumulator* metrics) {
                          db.QueryInt("SELECT ifnull(sum(length(visible_rle) + length(full_rle)), 0) FROM instances"));
   SOLID_ASSIGN_OR_RETURN(summary.visible_instances, db.QueryInt("SELECT count(*) FROM instances WHERE visible_area > 0"));
   SOLID_ASSIGN_OR_RETURN(summary.distinct_models, db.QueryInt("SELECT count(DISTINCT model_key) FROM instances"));
-  if (!metrics) return summary;
+  return summary;
+}
+
+Status ShardReader::AddToMetrics(MetricsAccumulator& metrics) {
+  Db& db = impl_->db;
   SOLID_ASSIGN_OR_RETURN(Stmt per_image, Stmt::Prepare(db, "SELECT count(n.instance_id), ifnull(sum(n.visible_area > 0), 0) "
                                                            "FROM images i LEFT JOIN instances n USING (image_id) "
                                                            "GROUP BY i.image_id ORDER BY i.image_id"));
   for (;;) {
     SOLID_ASSIGN_OR_RETURN(bool row, per_image.Step());
     if (!row) break;
-    metrics->AddImageCounts(per_image.Int(0), per_image.Int(1));
+    metrics.AddImageCounts(per_image.Int(0), per_image.Int(1));
   }
   SOLID_ASSIGN_OR_RETURN(Stmt visible, Stmt::Prepare(db, "SELECT visible_area, full_area FROM instances "
                                                          "WHERE visible_area > 0 ORDER BY image_id, ordinal"));
@@ -859,9 +863,9 @@ Result<ShardSummary> ShardReader::Summarize(MetricsAccumulator* metrics) {
     RowReader r(visible, impl_->path.string() + ": instances");
     SOLID_ASSIGN_OR_RETURN(int64_t visible_area, r.Int(0, "visible_area", 0));
     SOLID_ASSIGN_OR_RETURN(int64_t full_area, r.Int(1, "full_area", visible_area));
-    metrics->AddVisibleInstance(static_cast<uint64_t>(visible_area), static_cast<uint64_t>(full_area));
+    metrics.AddVisibleInstance(static_cast<uint64_t>(visible_area), static_cast<uint64_t>(full_area));
   }
-  return summary;
+  return Status::Ok();
 }
 
 Result<std::vector<int64_t>> ShardReader::ImageIds() {

@@ -19,8 +19,8 @@ std::string_view StatusCodeName(StatusCode code) {
   return "unknown";
 }
 
-Status Status::ForOption(std::string_view option, std::string_view message) {
-  Status status(StatusCode::kInvalidArgument, std::string(option) + ": " + std::string(message));
+Status Status::ForOption(std::string_view option, std::string_view message, StatusCode code) {
+  Status status(code, std::string(option) + ": " + std::string(message));
   status.option_ = option;
   return status;
 }

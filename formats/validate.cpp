@@ -288,6 +288,31 @@ nlohmann::json ValidationReport::ToJson() const {
           {"problems_not_listed", problems_not_listed}};
 }
 
+std::string ValidationReport::ToText() const {
+  std::string out;
+  for (const ValidationProblem& p : problems) {
+    out += (p.location.empty() ? p.message : p.location + ": " + p.message) + "\n";
+  }
+  if (problems_not_listed > 0) out += fmt::format("{} more problems not listed\n", problems_not_listed);
+  out += fmt::format("{}: {} shards, {} query shards, {} images, {} instances, {} query views checked; {} problems\n",
+                     ok() ? "OK" : "FAILED", shards, query_shards, images, instances, query_views,
+                     problems.size() + static_cast<size_t>(problems_not_listed));
+  return out;
+}
+
+Result<ValidationReport> Validate(const ValidateOptions& options) {
+  if (options.path.empty()) return OptionError("path", "no dataset directory or shard file given");
+  if (options.max_problems < 1 || options.max_problems > kMaxListedProblems) {
+    return OptionError("max_problems", fmt::format("{} is not in [1, {}]", options.max_problems, kMaxListedProblems));
+  }
+  std::error_code ec;
+  if (!fs::exists(options.path, ec)) {
+    return NotFoundError(options.path.string() + ": no such dataset directory or shard file");
+  }
+  return fs::is_regular_file(options.path, ec) ? ValidateShardFile(options.path, options)
+                                               : ValidateDataset(options.path, options);
+}
+
 ValidationReport ValidateDataset(const fs::path& root, const ValidateOptions& options) {
   ValidationReport report;
   Checker check(options, &report);

@@ -45,7 +45,7 @@ Result<MetricsReport> MeasureDataset(const MetricsOptions& options) {
   report.scale_classes_at = manifest.ScaleClassResolution();
   if (!options.target_row.empty()) {
     Result<std::vector<Target>> targets = TableRowTargets(options.target_row);
-    if (!targets.ok()) return OptionError("target_row", targets.status().message());
+    if (!targets.ok()) return OptionError("target_row", targets.status().message(), targets.status().code());
     report.comparisons = CompareWithTargets(report.measured, *targets);
     report.compared_with = "Table-1 row " + options.target_row;
   } else if (!options.compare.empty()) {

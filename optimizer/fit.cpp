@@ -35,7 +35,7 @@ Result<ResolvedTargets> ResolveTargets(const TargetSpec& spec, const render::Lay
   std::vector<Target>& targets = resolved.targets;
   if (!spec.target_row.empty()) {
     Result<std::vector<Target>> row = TableRowTargets(spec.target_row);
-    if (!row.ok()) return OptionError("target_row", row.status().message());
+    if (!row.ok()) return OptionError("target_row", row.status().message(), row.status().code());
     targets = *std::move(row);
   }
   auto set = [&](Metric m, double value) {

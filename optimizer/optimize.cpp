@@ -13,12 +13,9 @@
 #include <tuple>
 
 #include "solid/formats/checksum.h"
-#include "solid/formats/dataset.h"
 #include "solid/formats/files.h"
 #include "solid/formats/json_schema.h"
-#include "solid/formats/rle.h"
 #include "solid/formats/schemas.h"
-#include "solid/formats/shard.h"
 #include "solid/render/sample.h"
 
 namespace solid::optimizer {
@@ -844,33 +841,6 @@ std::optional<nlohmann::json> ReusableFit(const FitFiles& files, uint64_t finger
     return std::nullopt;
   }
   return record["summary"];
-}
-
-Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root) {
-  SOLID_ASSIGN_OR_RETURN(Manifest manifest, ReadManifest(dataset_root));
-  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(dataset_root));
-  MetricsAccumulator metrics(manifest.ScaleClassAreaScale());
-  for (const ShardFile& file : listing.targets) {
-    SOLID_ASSIGN_OR_RETURN(ShardReader shard, ShardReader::Open(file.path));
-    SOLID_ASSIGN_OR_RETURN(std::vector<int64_t> ids, shard.ImageIds());
-    for (int64_t id : ids) {
-      SOLID_ASSIGN_OR_RETURN(std::vector<InstanceRecord> instances, shard.InstancesOfImage(id));
-      int64_t visible = 0;
-      for (const InstanceRecord& in : instances) {
-        const std::string where = fmt::format("{}: image {} instance {}", file.path.string(), id, in.ordinal);
-        Result<rle::Rle> v = rle::FromString(in.visible_rle, manifest.height, manifest.width);
-        if (!v.ok()) return v.status().WithContext(where + " visible mask");
-        Result<rle::Rle> f = rle::FromString(in.full_rle, manifest.height, manifest.width);
-        if (!f.ok()) return f.status().WithContext(where + " full mask");
-        const uint64_t visible_area = rle::Area(*v);
-        if (visible_area == 0) continue;
-        ++visible;
-        metrics.AddVisibleInstance(visible_area, rle::Area(*f));
-      }
-      metrics.AddImageCounts(static_cast<int64_t>(instances.size()), visible);
-    }
-  }
-  return metrics.Finish();
 }
 
 std::vector<Comparison> CompareWithTargets(const ProxyMetrics& measured, const std::vector<Target>& targets) {

@@ -138,6 +138,10 @@ TEST(Provenance, F6_EveryCommandExitsWithTheReadmesCode) {
       {"validate: a missing path", Solid("validate " + ShellQuote(missing.string())), 3,
        "no such dataset directory or shard file"},
       {"validate: no manifest", Solid("validate " + ShellQuote(orphans.string())), 1, "manifest.json"},
+      // The calls refuse an empty path as an options field; the CLI names the argument.
+      {"inspect: an empty PATH", Solid("inspect ''"), 2, "solid: PATH: no dataset, assets directory or shard given"},
+      {"validate: an empty PATH", Solid("validate ''"), 2, "solid: PATH: no dataset directory or shard file given"},
+      {"index: an empty DATASET", Solid("index ''"), 2, "solid: DATASET: no dataset directory given"},
       {"index: a missing dataset", Solid("index " + ShellQuote(missing.string())), 3, "no dataset directory"},
       {"index: no manifest", Solid("index " + ShellQuote(orphans.string())), 3, "solid index --adopt"},
       {"index: format version 1", Solid("index " + ShellQuote(v1.string())), 3, "this build reads format version 2"},

@@ -248,13 +248,13 @@ TEST(ConvertProcedural, IsDeterministicAndInspectable) {
     ASSERT_OK(y.status());
     EXPECT_EQ(*x, *y) << file << " differs between --jobs 1 and --jobs 2";
   }
-  auto inspection = Inspect(dir.path() / "a");
+  auto inspection = Inspect({dir.path() / "a"});
   ASSERT_OK(inspection.status());
-  EXPECT_EQ((*inspection)["kind"], "assets");
-  EXPECT_EQ((*inspection)["assets"], 8);
-  EXPECT_EQ((*inspection)["rooms"], 2);
-  EXPECT_GT((*inspection)["bytes_out"].get<int64_t>(), 0);
-  EXPECT_NE(FormatInspection(*inspection).find("procedural"), std::string::npos);
+  EXPECT_EQ(inspection->summary["kind"], "assets");
+  EXPECT_EQ(inspection->summary["assets"], 8);
+  EXPECT_EQ(inspection->summary["rooms"], 2);
+  EXPECT_GT(inspection->summary["bytes_out"].get<int64_t>(), 0);
+  EXPECT_NE(inspection->ToText().find("procedural"), std::string::npos);
 }
 
 // Text in warnings comes from the input: an undefined Latin-1 usemtl name went verbatim into

@@ -183,7 +183,12 @@ TEST(ExportCoco, LinkHardLinksAnEarlierExportOfTheSameDataset) {
   o.dataset = e.dataset;
   o.out_dir = e.dir.path() / "linked";
   o.images = CocoImages::kLink;
-  EXPECT_EQ(ExportCoco(o).status().code(), StatusCode::kInvalidArgument) << "link needs --link-from";
+  EXPECT_EQ(ExportCoco(o).status().code(), StatusCode::kInvalidArgument) << "link needs link_from";
+  EXPECT_EQ(ExportCoco(o).status().option(), "link_from");
+  o.link_from = e.dir.path() / "no-export";
+  const Status not_an_export = ExportCoco(o).status();
+  EXPECT_EQ(not_an_export.code(), StatusCode::kNotFound) << not_an_export.ToString();
+  EXPECT_EQ(not_an_export.option(), "link_from");
 
   o.link_from = e.out;
   o.masks = CocoMasks::kFull;
@@ -270,7 +275,12 @@ TEST(ExportCli, ExportsAndRefusesLinkWithoutASource) {
   EXPECT_NE(ok.output.find("annotations.json: 8 images"), std::string::npos) << ok.output;
   const fixtures::CommandRun link = fixtures::RunCommand(base + " --images link");
   EXPECT_EQ(link.exit_status, 2) << link.output;
-  EXPECT_NE(link.output.find("--link-from"), std::string::npos) << link.output;
+  EXPECT_NE(link.output.find("solid: --link-from: needed to link the images"), std::string::npos) << link.output;
+  const fixtures::CommandRun elsewhere = fixtures::RunCommand(
+      base + " --images link --link-from " + fixtures::ShellQuote((dir.path() / "d").string()));
+  EXPECT_EQ(elsewhere.exit_status, 3) << elsewhere.output;
+  EXPECT_NE(elsewhere.output.find("solid: --link-from: "), std::string::npos) << elsewhere.output;
+  EXPECT_NE(elsewhere.output.find("not an export of this dataset"), std::string::npos) << elsewhere.output;
 }
 
 }  // namespace

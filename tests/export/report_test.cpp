@@ -94,7 +94,34 @@ TEST(Report, ComparesWithATableRow) {
   o.out = dir.path() / "r.html";
   o.target_row = "no-such-row";
   EXPECT_EQ(WriteReport(o).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(WriteReport(o).status().option(), "target_row");
   EXPECT_FALSE(fs::exists(o.out));
+}
+
+TEST(Report, OptionErrorsNameTheirFieldAndTheCliTheFlag) {
+  TempDir dir;
+  fixtures::LayeredDatasetOptions layered;
+  ASSERT_OK(fixtures::WriteLayeredDataset(dir.path() / "d", layered));
+  ReportOptions o;
+  o.dataset = dir.path() / "d";
+  o.out = dir.path() / "r.html";
+  o.samples = -1;
+  EXPECT_EQ(WriteReport(o).status().option(), "samples");
+  o.samples = 0;
+  o.query_models = kMaxReportQueryModels + 1;
+  EXPECT_EQ(WriteReport(o).status().option(), "query_models");
+  o.query_models = 0;
+  o.out.clear();
+  EXPECT_EQ(WriteReport(o).status().option(), "out");
+  EXPECT_FALSE(fs::exists(dir.path() / "r.html"));
+
+  const fixtures::CommandRun run = fixtures::RunCommand(
+      std::string(SOLID_CLI_BINARY) + " report " + fixtures::ShellQuote((dir.path() / "d").string()) + " " +
+      fixtures::ShellQuote((dir.path() / "r.html").string()) + " --target-row no-such-row");
+  EXPECT_EQ(run.exit_status, 3) << run.output;
+  EXPECT_NE(run.output.find("solid: --target-row: unknown Table-1 row \"no-such-row\""), std::string::npos)
+      << run.output;
+  EXPECT_FALSE(fs::exists(dir.path() / "r.html"));
 }
 
 // Headless Chromium opens the page: it loads without console errors, its DOM holds the

@@ -14,6 +14,7 @@
 #include "solid/formats/catalog.h"
 #include "solid/formats/dataset.h"
 #include "solid/formats/inspect.h"
+#include "solid/formats/metrics.h"
 #include "solid/formats/shard.h"
 #include "solid/formats/validate.h"
 
@@ -38,7 +39,9 @@ void ReadEverything(const fs::path& shard) {
   auto reader = ShardReader::Open(shard);
   if (!reader.ok()) return;
   (void)reader->Meta();
-  (void)reader->Summarize(nullptr);
+  (void)reader->Summarize();
+  MetricsAccumulator metrics;
+  (void)reader->AddToMetrics(metrics);
   auto ids = reader->ImageIds();
   if (!ids.ok()) return;
   for (int64_t id : *ids) {
@@ -84,7 +87,7 @@ TEST_F(Corruption, FlippedBytesAreReportedWithTheirFile) {
     bytes[offset] = static_cast<char>(bytes[offset] ^ static_cast<char>(1 + rng() % 255));
     WriteAll(shard_, bytes);
     ReadEverything(shard_);
-    (void)Inspect(dir_.path());
+    (void)Inspect({dir_.path()});
     ValidateOptions options;
     options.decode_images = true;
     ValidationReport report = ValidateDataset(dir_.path(), options);

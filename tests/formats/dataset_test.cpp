@@ -217,11 +217,11 @@ TEST(Index, MetricsMatchAFreshAccumulation) {
   EXPECT_NEAR(report->metrics.objects_per_image.mean, want.objects_per_image.mean, 1e-12);
   EXPECT_NEAR(report->metrics.occlusion.mean, want.occlusion.mean, 1e-12);
   EXPECT_NEAR(report->metrics.small.mean + report->metrics.medium.mean + report->metrics.large.mean, 1.0, 1e-12);
-  auto inspection = Inspect(dir.path());
+  auto inspection = Inspect({dir.path()});
   ASSERT_OK(inspection.status());
-  EXPECT_EQ((*inspection)["totals"]["images"], 9);
-  EXPECT_NEAR((*inspection)["metrics"]["occlusion"]["mean"].get<double>(), want.occlusion.mean, 1e-12);
-  std::string text = FormatInspection(*inspection);
+  EXPECT_EQ(inspection->summary["totals"]["images"], 9);
+  EXPECT_NEAR(inspection->summary["metrics"]["occlusion"]["mean"].get<double>(), want.occlusion.mean, 1e-12);
+  std::string text = inspection->ToText();
   EXPECT_NE(text.find("objects per image"), std::string::npos) << text;
 }
 

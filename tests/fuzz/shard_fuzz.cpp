@@ -29,8 +29,9 @@ void ReadTargetShard(const std::filesystem::path& path) {
   solid::Result<solid::ShardReader> reader = solid::ShardReader::Open(path);
   if (!reader.ok()) return;
   (void)reader->Meta();
+  (void)reader->Summarize();
   solid::MetricsAccumulator metrics;
-  if (reader->Summarize(&metrics).ok()) (void)metrics.Finish();
+  if (reader->AddToMetrics(metrics).ok()) (void)metrics.Finish();
   std::vector<std::string> models;
   (void)reader->ForEachInstance(
       [&](const solid::InstanceRecord& in) {

@@ -467,9 +467,9 @@ TEST(DatasetMetrics, MatchTheStoredAreas) {
   ASSERT_OK(fixtures::WriteLayeredDataset(dir.path(), options));
   Result<ProxyMetrics> m = DatasetMetrics(dir.path());
   ASSERT_OK(m.status());
-  Result<nlohmann::json> inspected = Inspect(dir.path());
+  Result<InspectReport> inspected = Inspect({dir.path()});
   ASSERT_OK(inspected.status());
-  const nlohmann::json& want = (*inspected)["metrics"];
+  const nlohmann::json& want = inspected->summary["metrics"];
   EXPECT_EQ(m->images, 12);
   EXPECT_EQ(m->visible_instances, want["visible_instances"].get<int64_t>());
   EXPECT_DOUBLE_EQ(m->objects_per_image.mean, want["objects_per_image"]["mean"].get<double>());

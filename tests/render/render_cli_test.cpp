@@ -115,8 +115,9 @@ TEST(RenderCli, AFarmOfShardProcessesEqualsOneProcess) {
   }
   for (std::thread& p : processes) p.join();
   for (int k = 0; k < 6; ++k) EXPECT_EQ(exits[k], 0) << "shard " << k;
-  const auto index = RunCommand(ShellQuote(SOLID_CLI_BINARY) + " index " + ShellQuote(farm.string()));
-  ASSERT_EQ(index.exit_status, 0) << index.output;
+  const Result<IndexReport> index = Index({.dataset = farm});
+  ASSERT_OK(index.status());
+  EXPECT_TRUE(index->ok());
   const ValidationReport validation = ValidateDataset(farm);
   EXPECT_TRUE(validation.ok()) << validation.ToJson().dump(2);
   EXPECT_EQ(testing::DigestDataset(farm).value(), testing::DigestDataset(reference).value());
@@ -257,19 +258,22 @@ TEST(RenderCli, IndexDuringARenderCoversCompleteShardsOnly) {
   const fs::path temp = files::TempPathFor(paths.shard(5));
   { std::ofstream(temp) << "half a shard"; }
 
-  const std::string index_command = ShellQuote(SOLID_CLI_BINARY) + " index " + ShellQuote(out.string());
-  const auto mid = RunCommand(index_command);
-  EXPECT_EQ(mid.exit_status, 0) << mid.output;
-  EXPECT_NE(mid.output.find("indexed 5 shards (15 images"), std::string::npos) << mid.output;
-  EXPECT_NE(mid.output.find("shards 5 are not there yet"), std::string::npos) << mid.output;
+  const Result<IndexReport> mid = Index({.dataset = out});
+  ASSERT_OK(mid.status());
+  EXPECT_TRUE(mid->ok()) << mid->ToJson().dump();
+  EXPECT_EQ(mid->shards, 5);
+  EXPECT_EQ(mid->images, 15);
+  EXPECT_EQ(mid->missing_shards, (std::vector<std::pair<int64_t, int64_t>>{{5, 5}}));
   fs::remove(temp);
 
   held.reset();
   ASSERT_EQ(render.Wait(), 0) << render.Output();
-  const auto last = RunCommand(index_command);
-  EXPECT_EQ(last.exit_status, 0) << last.output;
-  EXPECT_NE(last.output.find("indexed 6 shards (18 images"), std::string::npos) << last.output;
-  EXPECT_EQ(last.output.find("not there yet"), std::string::npos) << last.output;
+  const Result<IndexReport> last = Index({.dataset = out});
+  ASSERT_OK(last.status());
+  EXPECT_TRUE(last->ok());
+  EXPECT_EQ(last->shards, 6);
+  EXPECT_EQ(last->images, 18);
+  EXPECT_TRUE(last->missing_shards.empty());
   const ValidationReport validation = ValidateDataset(out);
   EXPECT_TRUE(validation.ok()) << validation.ToJson().dump(2);
 }

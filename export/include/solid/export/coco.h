@@ -10,6 +10,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "solid/formats/cancel.h"
 #include "solid/formats/progress.h"
@@ -47,12 +50,19 @@ struct CocoExportOptions {
 };
 
 struct CocoExportReport {
+  std::filesystem::path annotations_file;  // OUT_DIR/annotations.json
   int64_t images = 0, annotations = 0, categories = 0;
   int64_t skipped_invisible = 0;  // instances left out because their mask is empty
   int64_t image_bytes = 0;        // written or linked
   double seconds = 0;
+  nlohmann::json ToJson() const;
+  // "<annotations_file>: N images, M annotations in K categories (...), X MB of images, S s"
+  std::string ToText() const;
 };
 
+// kInvalidArgument for `dataset` or `out_dir` when empty and for `link_from` when kLink has
+// none; an image missing from link_from, or other than the shard's, is an error about
+// `link_from` too (kNotFound, kCorrupt). kCancelled as `cancel` says; the dataset's errors.
 Result<CocoExportReport> ExportCoco(const CocoExportOptions& options);
 
 }  // namespace solid::exporters

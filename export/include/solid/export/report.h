@@ -13,9 +13,14 @@
 #include <filesystem>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
+#include "solid/formats/metrics.h"
 #include "solid/formats/status.h"
 
 namespace solid::exporters {
+
+inline constexpr int kMaxReportSamples = 1000, kMaxReportQueryModels = 64;
 
 struct ReportOptions {
   std::filesystem::path dataset;
@@ -23,16 +28,24 @@ struct ReportOptions {
   // A Table-1 row (preset name) whose targets the metrics are compared with; empty: the
   // preset whose layout params equal the manifest's (resolution aside), if any; "none": no targets.
   std::string target_row;
-  int samples = 12;        // sample images, evenly spaced over the image ids
-  int query_models = 4;    // query views shown per sample: the largest visible objects'
+  int samples = 12;        // sample images, evenly spaced over the image ids; 0 to kMaxReportSamples
+  int query_models = 4;    // query views shown per sample (the largest visible objects'); 0 to kMaxReportQueryModels
 };
 
 struct ReportSummary {
+  std::filesystem::path out;  // the page written
   int64_t images = 0, instances = 0, samples = 0;
   std::string target_row;  // the row compared with, empty when none
   int64_t bytes = 0;       // size of the page
+  ProxyMetrics metrics;    // the dataset's (DatasetMetrics), as the page shows them
+  nlohmann::json ToJson() const;
+  // "<out>: N images, M instances, K samples, targets of ROW, X MB"
+  std::string ToText() const;
 };
 
+// kInvalidArgument for an empty `dataset` or `out`, for `samples` or `query_models` out of
+// range; kNotFound for a `target_row` that is no Table-1 row; the dataset's errors. On
+// error, no page is written.
 Result<ReportSummary> WriteReport(const ReportOptions& options);
 
 }  // namespace solid::exporters

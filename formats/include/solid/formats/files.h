@@ -30,8 +30,34 @@ Status Publish(const std::filesystem::path& temp, const std::filesystem::path& f
 // and publishes it. On error temp is removed; messages name final_path.
 Status SyncAndPublish(const std::filesystem::path& temp, const std::filesystem::path& final_path, bool replace);
 
-// Whole-file write through a synced temporary sibling. On error the file at path is as it
-// was, and no temporary is left.
+// A file written as a stream and published atomically: the bytes go, buffered, to a
+// temporary sibling of the final path (TempPathFor); Commit syncs it and renames it into
+// place, replacing what is there. Destroyed uncommitted (an error, a cancel), it removes the
+// temporary: a reader sees the old file or the whole new one, never part of one. Messages
+// name the final path. Not thread-safe.
+class AtomicFileWriter {
+ public:
+  static Result<AtomicFileWriter> Create(const std::filesystem::path& final_path);
+  AtomicFileWriter(AtomicFileWriter&& other) noexcept;
+  AtomicFileWriter& operator=(AtomicFileWriter&&) = delete;
+  ~AtomicFileWriter();
+
+  Status Write(std::span<const uint8_t> bytes);
+  Status Write(std::string_view text);
+  // After an error, or once committed, the writer writes nothing more.
+  Status Commit();
+
+ private:
+  AtomicFileWriter() = default;
+  // Writes the buffer, then `more`; on error abandons the temporary.
+  Status Flush(std::span<const uint8_t> more = {});
+  std::filesystem::path final_, temp_;
+  int fd_ = -1;
+  std::vector<uint8_t> buffer_;
+};
+
+// Whole-file write through a synced temporary sibling (an AtomicFileWriter). On error the
+// file at path is as it was, and no temporary is left.
 Status WriteFileAtomically(const std::filesystem::path& path, std::span<const uint8_t> bytes);
 
 // Writes all of bytes to fd, through short writes and EINTR; messages name path.

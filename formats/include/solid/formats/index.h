@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "solid/formats/metrics.h"
 #include "solid/formats/progress.h"
 #include "solid/formats/status.h"
@@ -25,9 +27,27 @@ struct IndexReport {
   // rendered), as inclusive ranges: an index made while renders run covers the complete
   // shards only.
   std::vector<std::pair<int64_t, int64_t>> missing_shards;
+  // What IndexOptions::adopt found (AdoptReport::Summary), when it rebuilt the manifest.
+  std::string adopted;
+
+  // Every shard present was indexed.
+  bool ok() const { return skipped.empty(); }
+  nlohmann::json ToJson() const;
 };
 
 Result<IndexReport> BuildIndex(const std::filesystem::path& dataset_root, const ProgressCallback& progress = {});
+
+struct IndexOptions {
+  std::filesystem::path dataset;
+  // When dataset has no manifest.json: rebuild it from the shards' provenance first
+  // (AdoptManifest), if they all agree.
+  bool adopt = false;
+  ProgressCallback progress;  // in shard files
+};
+
+// `solid index`: the adoption, then BuildIndex. kInvalidArgument for `dataset` when empty;
+// BuildIndex's and AdoptManifest's errors otherwise. Shards skipped are the report's.
+Result<IndexReport> Index(const IndexOptions& options);
 
 // Compares index.sqlite with what BuildIndex would write now. Returns one message per
 // disagreement ("index.sqlite: shards row 3: bytes 1200 vs 1300 in the shard"), empty

@@ -4,11 +4,13 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <span>
 
 #include <nlohmann/json.hpp>
 
 #include "solid/formats/records.h"
+#include "solid/formats/status.h"
 
 namespace solid {
 
@@ -60,5 +62,12 @@ class MetricsAccumulator {
   Moments objects_, occlusion_;
   int64_t visible_ = 0, small_ = 0, medium_ = 0, large_ = 0;
 };
+
+// The proxy metrics of a rendered dataset: every target shard present, in shard order
+// (ShardReader::AddToMetrics), classed at the manifest's scale-class resolution
+// (Manifest::ScaleClassAreaScale), from the stored areas (validate checks them against the
+// masks). No image is read. The one computation behind inspect, index, report and
+// `solid metrics`. Errors name the shard.
+Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root);
 
 }  // namespace solid

@@ -97,10 +97,10 @@ struct ShardSummary {
   int64_t visible_instances = 0, distinct_models = 0;
 };
 
+class MetricsAccumulator;
+
 // What readers do with blob checksums. kVerify costs one XXH64 pass (GB/s).
 enum class ChecksumPolicy { kVerify, kSkip };
-
-class MetricsAccumulator;
 
 class ShardReader {
  public:
@@ -117,9 +117,16 @@ class ShardReader {
   Status VerifyContent(ChecksumPolicy policy = ChecksumPolicy::kVerify);
   Result<ShardCounts> Counts();
 
-  // Sizes and counts from aggregate queries (no blob is read). When `metrics` is
-  // given, every image and visible instance of the shard is added to it.
-  Result<ShardSummary> Summarize(MetricsAccumulator* metrics = nullptr);
+  // Sizes and counts from aggregate queries (no blob is read).
+  Result<ShardSummary> Summarize();
+
+  // Adds the shard's rows to `metrics`: every image (in id order) and each of its visible
+  // instances, from the stored areas. No blob is read. Every reader of a dataset's metrics
+  // (inspect, index, report, DatasetMetrics) adds its shards so, in shard order, to one
+  // accumulator of the manifest's area scale: they agree to the last bit, with each other
+  // and with the optimizer's evaluation of the same layouts. On error some rows may have
+  // been added: a caller that skips a damaged shard adds it to a copy first.
+  Status AddToMetrics(MetricsAccumulator& metrics);
 
   // Image ids in ascending order.
   Result<std::vector<int64_t>> ImageIds();

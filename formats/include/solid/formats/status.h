@@ -38,8 +38,11 @@ class [[nodiscard]] Status {
   Status(StatusCode code, std::string message) : code_(code), message_(std::move(message)) {}
   // kInvalidArgument for one field of a library call's options struct: the message starts
   // with "<option>: ", and option() keeps the field's name, so that a front end can name
-  // its own spelling of it (the CLI's flag) without parsing the message.
-  static Status ForOption(std::string_view option, std::string_view message);
+  // its own spelling of it (the CLI's flag) without parsing the message. A field that is
+  // well formed but names what is not there (a Table-1 row, an earlier export) keeps the
+  // code of that, e.g. kNotFound.
+  static Status ForOption(std::string_view option, std::string_view message,
+                          StatusCode code = StatusCode::kInvalidArgument);
 
   static Status Ok() { return Status(); }
 
@@ -72,7 +75,10 @@ inline Status NotFoundError(std::string m) { return {StatusCode::kNotFound, std:
 inline Status AlreadyExistsError(std::string m) { return {StatusCode::kAlreadyExists, std::move(m)}; }
 inline Status InternalError(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
 inline Status CancelledError(std::string m) { return {StatusCode::kCancelled, std::move(m)}; }
-inline Status OptionError(std::string_view option, std::string_view m) { return Status::ForOption(option, m); }
+inline Status OptionError(std::string_view option, std::string_view m,
+                          StatusCode code = StatusCode::kInvalidArgument) {
+  return Status::ForOption(option, m, code);
+}
 
 // Either a value or a non-OK Status. C++20 has no std::expected.
 template <typename T>

@@ -27,13 +27,24 @@ struct ValidationReport {
 
   bool ok() const { return problems.empty() && problems_not_listed == 0; }
   nlohmann::json ToJson() const;
+  // One line per problem, then "OK: ..." or "FAILED: ..." with the counts checked.
+  std::string ToText() const;
 };
 
 struct ValidateOptions {
+  // For Validate: a dataset directory or a target or query shard file. (ValidateDataset
+  // and the shard-level calls below take theirs as an argument and ignore this.)
+  std::filesystem::path path;
   bool decode_images = true;  // decode every PNG/JPEG/WebP/EXR and compare its size
-  size_t max_problems = 1000;
+  size_t max_problems = 1000;  // 1 to kMaxListedProblems
   ProgressCallback progress;  // in shard files
 };
+inline constexpr size_t kMaxListedProblems = size_t{1} << 20;
+
+// `solid validate`: ValidateShardFile when options.path is a regular file, ValidateDataset
+// otherwise. kNotFound when nothing is at the path; kInvalidArgument for `path` (empty) or
+// `max_problems` (out of range). Problems found are the report's, not an error.
+Result<ValidationReport> Validate(const ValidateOptions& options);
 
 // Checks: the manifest against its schema; every shard's schema version, SQLite
 // integrity, blob and row checksums (every stored value), content checksum (every row)

@@ -226,10 +226,6 @@ std::optional<nlohmann::json> ReusableFit(const FitFiles& files, uint64_t finger
 // dimension by name) or JSON (an array of objects).
 std::string TraceText(const OptimizeReport& report, const std::filesystem::path& path);
 
-// Proxy metrics of a rendered dataset, computed from its stored masks (COCO RLE decoded,
-// areas counted; no image is read). Errors name the shard and image.
-Result<ProxyMetrics> DatasetMetrics(const std::filesystem::path& dataset_root);
-
 // One metric of a dataset against a target or a prediction.
 struct Comparison {
   Metric metric = Metric::kObjectsPerImage;
