@@ -114,11 +114,14 @@ Result<SetStats> Measure(const std::string& name, const fs::path& dir, const Lay
 Result<fs::path> Convert(const fs::path& dir, bool procedural, const std::vector<convert::ShapeFamily>& families = {}) {
   convert::ConvertOptions options;
   options.jobs = 2;
-  convert::ProceduralSet set;
-  set.shapes.families = families;
-  Result<convert::ConvertReport> report =
-      procedural ? convert::ConvertProcedural(set, dir, options)
-                 : convert::ConvertShapeNet(fs::path(SOLID_SOURCE_DIR) / "../shared/testdata/real/shapenet", dir, options);
+  options.out = dir;
+  if (procedural) {
+    options.procedural.shapes.families = families;
+  } else {
+    options.source = convert::Source::kShapeNet;
+    options.root = fs::path(SOLID_SOURCE_DIR) / "../shared/testdata/real/shapenet";
+  }
+  Result<convert::ConvertReport> report = convert::Convert(options);
   SOLID_RETURN_IF_ERROR(report.status());
   if (report->failed > 0) return InternalError(fmt::format("{}: {} assets failed", dir.string(), report->failed));
   return dir;

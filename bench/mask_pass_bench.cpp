@@ -169,8 +169,7 @@ int Run(int argc, char** argv) {
     convert::ProceduralSet set{16, 3, 7};
     set.shapes.min_triangles = 10000;
     set.shapes.max_triangles = 20000;
-    convert::ConvertOptions options;
-    const auto converted = convert::ConvertProcedural(set, dir, options);
+    const auto converted = convert::Convert({.out = dir, .procedural = set});
     if (!converted.ok() || converted->failed != 0) {
       fmt::print(stderr, "procedural assets: {}\n", converted.ok() ? "failures" : converted.status().ToString());
       return 1;

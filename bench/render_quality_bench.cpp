@@ -245,7 +245,9 @@ int main(int argc, char** argv) {
     generated = fs::temp_directory_path() / fmt::format("solid-quality-bench-{}", ::getpid());
     convert::ConvertOptions options;
     options.jobs = threads;
-    const auto report = convert::ConvertProcedural({64, 8, 1}, generated, options);
+    options.out = generated;
+    options.procedural = {64, 8, 1};
+    const auto report = convert::Convert(options);
     if (!report.ok()) {
       fmt::print(stderr, "procedural assets: {}\n", report.status().ToString());
       return 1;

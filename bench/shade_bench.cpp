@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
   std::filesystem::path generated;
   if (assets.empty()) {
     generated = std::filesystem::temp_directory_path() / fmt::format("solid-shade-bench-{}", ::getpid());
-    const auto report = convert::ConvertProcedural({16, 3, 7}, generated, convert::ConvertOptions{});
+    const auto report = convert::Convert({.out = generated, .procedural = {16, 3, 7}});
     if (!report.ok()) {
       fmt::print(stderr, "procedural assets: {}\n", report.status().ToString());
       return 1;

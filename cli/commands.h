@@ -34,15 +34,9 @@ Command AddReport(CLI::App& app);
 // "WIDTHxHEIGHT", each 16..8192; errors name `flag`.
 Result<std::pair<int, int>> ParseResolution(std::string_view flag, const std::string& text);
 
-// Where layout params come from, for every command that samples layouts.
-struct ParamsFlags {
-  std::string params, preset, resolution, scale_classes_at;
-};
-// Registers --params, --preset (mutually exclusive), --resolution and --scale-classes-at on `cmd`.
-void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags);
-// The params file or preset, with --resolution and --scale-classes-at applied; kInvalidArgument when neither
-// is given or the resolution is malformed.
-Result<render::LayoutParams> ResolveParams(const ParamsFlags& flags);
+// Registers --params, --preset (mutually exclusive), --resolution and --scale-classes-at on
+// `cmd`, into `source`.
+void AddParamsFlags(CLI::App* cmd, render::ParamsSource* source);
 
 // A range check whose bounds are those of the integer at `pointer` of an embedded JSON Schema
 // (schemas::IntegerRange): a flag and the file it ends up in share one source.
@@ -69,6 +63,9 @@ using FlagNames = std::vector<std::pair<std::string_view, std::string_view>>;
 // about an option field (Status::ForOption) that `flags` names is printed with the flag
 // in place of the field.
 int Fail(const Status& status, const FlagNames& flags = {});
+
+// `flags` and the flags of AddParamsFlags (the fields of render::ParamsSource).
+FlagNames WithParamsFlags(FlagNames flags);
 
 }  // namespace solid::cli
 

@@ -1,26 +1,17 @@
 #include <fmt/format.h>
 
 #include <cstdio>
-#include <tuple>
 
 #include "commands.h"
 #include "exit_codes.h"
 #include "signals.h"
 #include "solid/formats/schemas.h"
+#include "solid/render/params.h"
 
 namespace solid::cli {
 
 Result<std::pair<int, int>> ParseResolution(std::string_view flag, const std::string& text) {
-  SOLID_ASSIGN_OR_RETURN(const auto side,
-                         schemas::IntegerRange("params.schema.json", "/properties/render/properties/resolution/items"));
-  int w = 0, h = 0;
-  char x = 0, rest = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < side.first ||
-      h < side.first || w > side.second || h > side.second) {
-    return InvalidArgumentError(
-        fmt::format("{} {}: expected WIDTHxHEIGHT, each {}..{}", flag, text, side.first, side.second));
-  }
-  return std::pair{w, h};
+  return render::ParseResolution(flag, text);
 }
 
 CLI::Validator SchemaRange(std::string_view schema, std::string_view pointer) {
@@ -49,34 +40,26 @@ CLI::Option* AddJobsOption(CLI::App* cmd, int* jobs, const std::string& help) {
   return cmd->add_option("--jobs,-j", *jobs, help + " (default: all cores)")->check(CLI::Range(1, kMaxJobs));
 }
 
-void AddParamsFlags(CLI::App* cmd, ParamsFlags* flags) {
-  auto* params = cmd->add_option("--params", flags->params, "Params file (JSON; see schemas/params.schema.json)");
-  auto* preset = cmd->add_option("--preset", flags->preset,
+void AddParamsFlags(CLI::App* cmd, render::ParamsSource* source) {
+  auto* params = cmd->add_option("--params", source->params, "Params file (JSON; see schemas/params.schema.json)");
+  auto* preset = cmd->add_option("--preset", source->preset,
                                  "A Table-1 preset: random-placement, occlusion, scale-distribution, rotation, "
                                  "scenenet-background, more-objects");
   params->excludes(preset);
   preset->excludes(params);
-  cmd->add_option("--resolution", flags->resolution,
+  cmd->add_option("--resolution", source->resolution,
                   "WIDTHxHEIGHT, overrides the params' (the presets say 640x480, where Table 1's areas are)");
-  cmd->add_option("--scale-classes-at", flags->scale_classes_at,
+  cmd->add_option("--scale-classes-at", source->scale_classes_at,
                   "WIDTHxHEIGHT: count COCO's small/medium/large as at this resolution (areas scaled by the "
                   "pixel-count ratio); overrides the params' render.scale_classes_at (default: the resolution)");
 }
 
-Result<render::LayoutParams> ResolveParams(const ParamsFlags& f) {
-  if (f.params.empty() && f.preset.empty()) return InvalidArgumentError("give --params FILE or --preset NAME");
-  Result<render::LayoutParams> params =
-      !f.params.empty() ? render::LoadParamsFile(f.params) : render::LoadPreset(f.preset);
-  if (!params.ok()) return params;
-  if (!f.resolution.empty()) {
-    SOLID_ASSIGN_OR_RETURN(const auto size, ParseResolution("--resolution", f.resolution));
-    std::tie(params->width, params->height) = size;
-  }
-  if (!f.scale_classes_at.empty()) {
-    SOLID_ASSIGN_OR_RETURN(const auto size, ParseResolution("--scale-classes-at", f.scale_classes_at));
-    std::tie(params->scale_width, params->scale_height) = size;
-  }
-  return params;
+FlagNames WithParamsFlags(FlagNames flags) {
+  flags.insert(flags.end(), {{"params", "--params"},
+                             {"preset", "--preset"},
+                             {"resolution", "--resolution"},
+                             {"scale_classes_at", "--scale-classes-at"}});
+  return flags;
 }
 
 void AddAssetCacheFlag(CLI::App* cmd, uint64_t* megabytes) {

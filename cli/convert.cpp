@@ -12,41 +12,34 @@ namespace solid::cli {
 namespace {
 
 struct ConvertFlags {
-  std::string root, out;
-  int jobs = 0;
-  int64_t limit = -1;
-  std::vector<std::string> synsets, families;
+  convert::ConvertOptions options;
+  std::vector<std::string> families;
   int version = 0;
-  bool retry_failed = false, all_objects = false, texture_library = false, verbose = false;
-  gltf::DracoOptions draco;
-  convert::ProceduralSet procedural;
+  bool verbose = false;
 };
 
+// Where a message about an options field names it, the user sees the flag.
+const FlagNames kConvertFlags = {{"procedural.models", "--models"}, {"procedural.rooms", "--rooms"}};
+
 void AddCommonFlags(CLI::App* cmd, ConvertFlags* f) {
-  AddJobsOption(cmd, &f->jobs, "Parallel conversions");
-  cmd->add_option("--limit", f->limit, "Convert at most N assets (after filters)")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--position-bits", f->draco.position_bits, "Draco position quantization bits")
+  convert::ConvertOptions& o = f->options;
+  AddJobsOption(cmd, &o.jobs, "Parallel conversions");
+  cmd->add_option("--limit", o.limit, "Convert at most N assets (after filters)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--position-bits", o.draco.position_bits, "Draco position quantization bits")
       ->capture_default_str()->check(CLI::Range(8, 30));
-  cmd->add_option("--normal-bits", f->draco.normal_bits, "Draco normal quantization bits")
+  cmd->add_option("--normal-bits", o.draco.normal_bits, "Draco normal quantization bits")
       ->capture_default_str()->check(CLI::Range(4, 30));
-  cmd->add_option("--texcoord-bits", f->draco.texcoord_bits, "Draco texture coordinate quantization bits")
+  cmd->add_option("--texcoord-bits", o.draco.texcoord_bits, "Draco texture coordinate quantization bits")
       ->capture_default_str()->check(CLI::Range(4, 30));
-  cmd->add_option("--compression-level", f->draco.compression_level, "Draco compression level 0 (fast) .. 10")
+  cmd->add_option("--compression-level", o.draco.compression_level, "Draco compression level 0 (fast) .. 10")
       ->capture_default_str()->check(CLI::Range(0, 10));
-  cmd->add_flag("--retry-failed", f->retry_failed, "Reconvert assets that failed before with unchanged inputs");
+  cmd->add_flag("--retry-failed", o.retry_failed, "Reconvert assets that failed before with unchanged inputs");
   cmd->add_flag("--verbose,-v", f->verbose, "Print a line per asset (failures are always printed)");
 }
 
-int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport>(const convert::ConvertOptions&)>& fn) {
-  convert::ConvertOptions options;
-  options.jobs = f.jobs;
-  options.limit = f.limit;
-  options.synsets = f.synsets;
+int Run(ConvertFlags& f) {
+  convert::ConvertOptions& options = f.options;
   if (f.version != 0) options.shapenet_version = f.version;
-  options.draco = f.draco;
-  options.retry_failed = f.retry_failed;
-  options.keep_all_room_objects = f.all_objects;
-  options.texture_library = f.texture_library;
   options.on_item = [&](const convert::ItemOutcome& item) {
     if (item.status == "failed") {
       fmt::print("FAILED\t{}\t{}\t{}\n", item.key, item.error_code, item.message);
@@ -58,9 +51,9 @@ int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport
   Result<convert::ConvertReport> report = [&] {
     ProgressLine progress("convert", "assets");
     options.progress = progress.Callback();
-    return fn(options);
+    return convert::Convert(options);
   }();
-  if (!report.ok()) return Fail(report.status());
+  if (!report.ok()) return Fail(report.status(), kConvertFlags);
   const convert::ConvertReport& r = *report;
   fmt::print("\n{:<18} {}\n", "assets", r.assets);
   fmt::print("{:<18} {}\n", "up to date", r.up_to_date);
@@ -88,7 +81,7 @@ int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport
     return StopExitCode();
   }
   if (r.failed > 0) {
-    fmt::print(stderr, "solid: {} assets failed; reasons: solid inspect {}\n", r.failed, f.out);
+    fmt::print(stderr, "solid: {} assets failed; reasons: solid inspect {}\n", r.failed, f.options.out.string());
     return kExitProblems;
   }
   return kExitOk;
@@ -102,29 +95,29 @@ Command AddConvert(CLI::App& app) {
                                                 "rooms into Draco-compressed glTF assets with an SQLite catalog.");
   cmd->require_subcommand(1);
   CLI::App* shapenet = cmd->add_subcommand("shapenet", "ShapeNetCore v1 or v2 tree -> OUT/models/<synset>/<id>.glb");
-  shapenet->add_option("ROOT", f->root, "ShapeNetCore root (holding taxonomy.json and synset folders)")->required();
-  shapenet->add_option("OUT", f->out, "Assets directory")->required();
-  shapenet->add_option("--synsets", f->synsets, "Only these synsets (comma-separated)")->delimiter(',');
+  shapenet->add_option("ROOT", f->options.root, "ShapeNetCore root (holding taxonomy.json and synset folders)")->required();
+  shapenet->add_option("OUT", f->options.out, "Assets directory")->required();
+  shapenet->add_option("--synsets", f->options.synsets, "Only these synsets (comma-separated)")->delimiter(',');
   shapenet->add_option("--shapenet-version", f->version, "ShapeNetCore version 1 or 2 (default: detected)")
       ->check(CLI::IsMember({1, 2}));
   AddCommonFlags(shapenet, f.get());
   CLI::App* scenenet = cmd->add_subcommand("scenenet", "SceneNet rooms (*.obj below ROOT) -> OUT/rooms/<scene>.glb");
-  scenenet->add_option("ROOT", f->root, "SceneNet root (SceneNetData/, layouts/...)")->required();
-  scenenet->add_option("OUT", f->out, "Assets directory")->required();
-  scenenet->add_flag("--all-objects", f->all_objects, "Keep every object, not only walls, floors and ceilings");
-  scenenet->add_flag("--texture-library", f->texture_library,
+  scenenet->add_option("ROOT", f->options.root, "SceneNet root (SceneNetData/, layouts/...)")->required();
+  scenenet->add_option("OUT", f->options.out, "Assets directory")->required();
+  scenenet->add_flag("--all-objects", f->options.keep_all_room_objects, "Keep every object, not only walls, floors and ceilings");
+  scenenet->add_flag("--texture-library", f->options.texture_library,
                      "Copy ROOT/texture_library/<category>/ to OUT/textures/, add textures/unknown/, and list "
                      "materials whose texture folder does not exist");
   AddCommonFlags(scenenet, f.get());
   CLI::App* procedural = cmd->add_subcommand("procedural", "Built-in label-free shapes and rooms (no download)");
-  procedural->add_option("OUT", f->out, "Assets directory")->required();
-  procedural->add_option("--models", f->procedural.models, "Number of shapes")->capture_default_str();
-  procedural->add_option("--rooms", f->procedural.rooms, "Number of rooms")->capture_default_str();
-  AddSeedOption(procedural, &f->procedural.seed, "Seed");
-  procedural->add_option("--min-triangles", f->procedural.shapes.min_triangles,
+  procedural->add_option("OUT", f->options.out, "Assets directory")->required();
+  procedural->add_option("--models", f->options.procedural.models, "Number of shapes")->capture_default_str();
+  procedural->add_option("--rooms", f->options.procedural.rooms, "Number of rooms")->capture_default_str();
+  AddSeedOption(procedural, &f->options.procedural.seed, "Seed");
+  procedural->add_option("--min-triangles", f->options.procedural.shapes.min_triangles,
                          "Fewest triangles of a shape (counts are drawn log-uniformly in the range)")
       ->capture_default_str();
-  procedural->add_option("--max-triangles", f->procedural.shapes.max_triangles, "Most triangles of a shape")
+  procedural->add_option("--max-triangles", f->options.procedural.shapes.max_triangles, "Most triangles of a shape")
       ->capture_default_str();
   procedural->add_option("--families", f->families,
                          "Only these shape families, comma-separated (default: all, mixed): chair, table, sofa, bed, "
@@ -133,16 +126,15 @@ Command AddConvert(CLI::App& app) {
       ->delimiter(',');
   AddCommonFlags(procedural, f.get());
   return [f, shapenet, scenenet] {
-    if (shapenet->parsed()) {
-      return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertShapeNet(f->root, f->out, o); });
+    f->options.source = shapenet->parsed()   ? convert::Source::kShapeNet
+                        : scenenet->parsed() ? convert::Source::kSceneNet
+                                             : convert::Source::kProcedural;
+    if (f->options.source == convert::Source::kProcedural) {
+      Result<std::vector<convert::ShapeFamily>> families = convert::ParseShapeFamilies(f->families);
+      if (!families.ok()) return Fail(families.status().WithContext("--families"));
+      f->options.procedural.shapes.families = std::move(families).value();
     }
-    if (scenenet->parsed()) {
-      return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertSceneNet(f->root, f->out, o); });
-    }
-    Result<std::vector<convert::ShapeFamily>> families = convert::ParseShapeFamilies(f->families);
-    if (!families.ok()) return Fail(families.status().WithContext("--families"));
-    f->procedural.shapes.families = std::move(families).value();
-    return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertProcedural(f->procedural, f->out, o); });
+    return Run(*f);
   };
 }
 

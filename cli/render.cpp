@@ -1,6 +1,5 @@
 #include <fmt/format.h>
 
-#include <cstdlib>
 #include <iostream>
 
 #include "commands.h"
@@ -13,41 +12,12 @@ namespace solid::cli {
 namespace {
 
 struct RenderFlags {
-  ParamsFlags params;
-  std::string assets, rooms, out, shards, format = "png", sampling = "uniform";
-  int64_t images = 1000, shard_size = 256, shard = -1;
-  uint64_t seed = 1;
-  int jobs = 0, quality = 90, samples_per_pixel = 4, query_size = 224;
+  render::RenderCommandOptions options;
+  std::string shards, format = "png", sampling = "uniform";
+  int64_t shard = -1;
   uint64_t asset_cache_mb = 2048;
-  bool depth = false, no_queries = false, repair = false, adopt = false, json = false;
+  bool no_queries = false, json = false;
 };
-
-// --shard K, --shards A-B, or the index a scheduler gives each task of an array job.
-Result<std::optional<std::pair<int64_t, int64_t>>> ShardRange(const RenderFlags& f, std::string* source) {
-  if (f.shard >= 0) {
-    *source = "--shard";
-    return std::optional(std::pair{f.shard, f.shard});
-  }
-  if (!f.shards.empty()) {
-    long long a = -1, b = -1;
-    char dash = 0, rest = 0;
-    if (std::sscanf(f.shards.c_str(), "%lld%c%lld%c", &a, &dash, &b, &rest) != 3 || dash != '-' || a < 0 || b < a) {
-      return InvalidArgumentError(fmt::format("--shards {}: expected FIRST-LAST, e.g. 0-15", f.shards));
-    }
-    *source = "--shards";
-    return std::optional(std::pair<int64_t, int64_t>{a, b});
-  }
-  for (const char* variable : {"SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"}) {
-    const char* value = std::getenv(variable);
-    if (value == nullptr || *value == '\0') continue;
-    char* end = nullptr;
-    const long long k = std::strtoll(value, &end, 10);
-    if (*end != '\0' || k < 0) return InvalidArgumentError(fmt::format("{}={}: not a shard index", variable, value));
-    *source = variable;
-    return std::optional(std::pair<int64_t, int64_t>{k, k});
-  }
-  return std::optional<std::pair<int64_t, int64_t>>();
-}
 
 void PrintReport(const render::RenderReport& r, const render::LayoutParams& p) {
   fmt::print("shards             {} requested: {} rendered ({} repaired), {} already present{}\n", r.shards_requested,
@@ -72,56 +42,44 @@ void PrintReport(const render::RenderReport& r, const render::LayoutParams& p) {
              r.index_built ? "; index.sqlite rebuilt" : "");
 }
 
-int Run(const RenderFlags& f) {
-  SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, ResolveParams(f.params));
-  std::string shard_source;
-  SOLID_ASSIGN_OR_RETURN_EXIT(auto shards, ShardRange(f, &shard_source));
-  SOLID_ASSIGN_OR_RETURN_EXIT(ImageFormat format, ParseImageFormat(f.format));
-  SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
-                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms,
-                                                         AssetLibraryOptionsFor(f.asset_cache_mb)));
-  SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
-                              render::LayoutSampler::Create(params, library));
-  render::RenderOptions options;
-  options.out = f.out;
-  options.seed = f.seed;
-  options.images = f.images;
-  options.shard_size = f.shard_size;
-  options.shards = shards;
-  options.jobs = f.jobs;
-  options.format = format;
-  options.quality = f.quality;
-  options.depth = f.depth;
-  options.shading.samples_per_pixel = f.samples_per_pixel;
+int Run(RenderFlags& f) {
+  render::RenderOptions& options = f.options.render;
+  // --shard K, --shards A-B, or the index a scheduler gives each task of an array job.
+  std::string shard_source = f.shard >= 0 ? "--shard" : "--shards";
+  if (f.shard >= 0) {
+    options.shards = std::pair{f.shard, f.shard};
+  } else if (!f.shards.empty()) {
+    SOLID_ASSIGN_OR_RETURN_EXIT(options.shards, render::ParseShardRange("--shards", f.shards));
+  } else {
+    SOLID_ASSIGN_OR_RETURN_EXIT(const std::optional<render::ScheduledShard> scheduled, render::ShardFromEnvironment());
+    if (scheduled) {
+      options.shards = std::pair{scheduled->shard, scheduled->shard};
+      shard_source = scheduled->variable;
+    }
+  }
+  SOLID_ASSIGN_OR_RETURN_EXIT(options.format, ParseImageFormat(f.format));
   options.shading.sampling = f.sampling == "adaptive" ? render::Sampling::kAdaptive : render::Sampling::kUniform;
-  // Query views are rendered at 384 px for 224 stored (solid-method 2.8), the object
-  // spanning about 80% of the frame, and cropped: keep that ratio for other sizes.
-  options.query_views.long_side = f.query_size;
-  options.query_views.render_size = (f.query_size * 12 + 6) / 7;
-  options.query_views.samples_per_pixel = f.samples_per_pixel;
   options.queries = !f.no_queries;
-  options.repair = f.repair;
-  options.adopt = f.adopt;
-  // Decoded textures are a second cache of the same size (the glb bytes count in the first).
-  options.texture_cache_bytes = f.asset_cache_mb << 20;
-  if (shards && !f.json) {
-    fmt::print(stderr, "solid: shards {}-{} (from {})\n", shards->first, shards->second, shard_source);
+  f.options.source.library = AssetLibraryOptionsFor(f.asset_cache_mb);
+  if (options.shards && !f.json) {
+    fmt::print(stderr, "solid: shards {}-{} (from {})\n", options.shards->first, options.shards->second, shard_source);
   }
   options.cancel = InstallStopHandlers();
   options.on_note = [](const std::string& line) { fmt::print(stderr, "solid: {}\n", line); };
-  Result<render::RenderReport> report = [&] {
+  Result<render::RenderCommandReport> report = [&] {
     ProgressLine progress("render", "images");
     options.progress = progress.Callback();
-    return render::RenderDataset(*sampler, options);
+    return render::RenderCommand(f.options);
   }();
-  if (!report.ok()) return Fail(report.status());
+  const FlagNames flags = WithParamsFlags({{"images", "--images"}, {"shard_size", "--shard-size"}, {"shards", shard_source}});
+  if (!report.ok()) return Fail(report.status(), flags);
   if (f.json) {
     std::cout << report->ToJson().dump(2) << "\n";
   } else {
-    PrintReport(*report, params);
+    PrintReport(report->render, report->params);
   }
-  if (report->cancelled) {
-    const render::RenderReport& r = *report;
+  const render::RenderReport& r = report->render;
+  if (r.cancelled) {
     fmt::print(stderr, "solid: stopped by {}: {} of {} requested shards complete ({} rendered by this run){}; {}\n",
                StopSignalName(), r.shards_requested - static_cast<int64_t>(r.shards_missing.size()),
                r.shards_requested, r.shards_rendered,
@@ -133,7 +91,7 @@ int Run(const RenderFlags& f) {
     fmt::print(stderr, "solid: to resume, run the same command again:\n  {}\n", CommandLine());
     return StopExitCode();
   }
-  return report->failed_images > 0 ? kExitProblems : kExitOk;
+  return r.failed_images > 0 ? kExitProblems : kExitOk;
 }
 
 }  // namespace
@@ -144,15 +102,15 @@ Command AddRender(CLI::App& app) {
       "Render target images with visible and full masks, boxes and depth, and query views of every model they "
       "use, into a sharded dataset; reruns render only what is missing.");
   auto f = std::make_shared<RenderFlags>();
-  AddParamsFlags(cmd, &f->params);
-  cmd->add_option("--assets", f->assets, "Assets directory with the models (from `solid convert`)")->required();
-  cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  AddParamsFlags(cmd, &f->options.source.params);
+  cmd->add_option("--assets", f->options.source.assets, "Assets directory with the models (from `solid convert`)")->required();
+  cmd->add_option("--rooms", f->options.source.rooms, "Assets directory with the rooms (default: --assets)");
   AddAssetCacheFlag(cmd, &f->asset_cache_mb);
-  cmd->add_option("--out,-o", f->out, "Dataset directory (created, or resumed when its manifest agrees)")->required();
-  cmd->add_option("--images,-n", f->images, "Images in the dataset")
+  cmd->add_option("--out,-o", f->options.render.out, "Dataset directory (created, or resumed when its manifest agrees)")->required();
+  cmd->add_option("--images,-n", f->options.render.images, "Images in the dataset")
       ->capture_default_str()
       ->check(SchemaRange("manifest.schema.json", "/properties/images"));
-  cmd->add_option("--shard-size", f->shard_size, "Images per shard")
+  cmd->add_option("--shard-size", f->options.render.shard_size, "Images per shard")
       ->capture_default_str()
       ->check(SchemaRange("manifest.schema.json", "/properties/shard_size"));
   auto* shard = cmd->add_option("--shard", f->shard,
@@ -162,25 +120,25 @@ Command AddRender(CLI::App& app) {
   auto* range = cmd->add_option("--shards", f->shards, "Render shards FIRST-LAST only");
   shard->excludes(range);
   range->excludes(shard);
-  AddSeedOption(cmd, &f->seed, "Dataset seed: image i depends only on (params, assets, seed, i)");
-  AddJobsOption(cmd, &f->jobs, "Images in parallel");
+  AddSeedOption(cmd, &f->options.render.seed, "Dataset seed: image i depends only on (params, assets, seed, i)");
+  AddJobsOption(cmd, &f->options.render.jobs, "Images in parallel");
   cmd->add_option("--format", f->format, "Image format: png, jpeg or webp")->capture_default_str();
-  cmd->add_option("--quality", f->quality, "JPEG/WebP quality")->capture_default_str()->check(CLI::Range(1, 100));
-  cmd->add_flag("--depth", f->depth, "Store depth as OpenEXR (half float, ZIP)");
-  cmd->add_option("--spp", f->samples_per_pixel, "Samples per pixel (stratified), of images and query views")->capture_default_str()->check(
+  cmd->add_option("--quality", f->options.render.quality, "JPEG/WebP quality")->capture_default_str()->check(CLI::Range(1, 100));
+  cmd->add_flag("--depth", f->options.render.depth, "Store depth as OpenEXR (half float, ZIP)");
+  cmd->add_option("--spp", f->options.render.shading.samples_per_pixel, "Samples per pixel (stratified), of images and query views")->capture_default_str()->check(
       CLI::Range(1, 1024));
   cmd->add_option("--sampling", f->sampling,
                   "Sampling of the images: uniform (spp camera rays per pixel) or adaptive (mask-driven: edges get "
                   "them, flat pixels one camera ray and shared light rays)")
       ->capture_default_str()
       ->check(CLI::IsMember({"uniform", "adaptive"}));
-  cmd->add_option("--query-size", f->query_size, "Long side of query views, pixels")->capture_default_str()->check(
+  cmd->add_option("--query-size", f->options.render.query_views.long_side, "Long side of query views, pixels")->capture_default_str()->check(
       CLI::Range(16, 4096));
   cmd->add_flag("--no-queries", f->no_queries, "Do not render query views");
-  cmd->add_flag("--repair", f->repair,
+  cmd->add_flag("--repair", f->options.render.repair,
                 "Validate present shards and re-render those that fail (damaged, another dataset's or another "
                 "shard's, not a regular file); the others keep their bytes");
-  cmd->add_flag("--adopt", f->adopt,
+  cmd->add_flag("--adopt", f->options.render.adopt,
                 "When DATASET has shards but no manifest.json: rebuild it from the shards' provenance, if they all "
                 "agree, and go on (without it such a directory is refused)");
   cmd->add_flag("--json", f->json, "Print the report as JSON");

@@ -8,22 +8,21 @@
 #include "exit_codes.h"
 #include "progress.h"
 #include "signals.h"
-#include "solid/formats/files.h"
 #include "solid/render/sample.h"
-#include "solid/render/scene_export.h"
 
 namespace solid::cli {
 namespace {
 
 struct SampleFlags {
-  ParamsFlags params;
-  std::string assets, rooms, export_path;
-  int64_t layouts = 100, first = 0, export_index = -1;
+  render::SampleCommandOptions options;
+  int64_t export_index = -1;
   uint64_t asset_cache_mb = 2048;
-  uint64_t seed = 1;
-  int jobs = 0;
   bool json = false;
 };
+
+const FlagNames kSampleFlags =
+    WithParamsFlags({{"layouts", "--layouts"}, {"first", "--first"}, {"export_scene", "--export-scene"},
+                     {"export_path", "--out"}});
 
 void PrintReport(const render::SampleReport& r, const render::LayoutParams& p) {
   const ProxyMetrics& m = r.metrics;
@@ -58,50 +57,33 @@ void PrintReport(const render::SampleReport& r, const render::LayoutParams& p) {
   }
 }
 
-int Run(const SampleFlags& f) {
-  SOLID_ASSIGN_OR_RETURN_EXIT(render::LayoutParams params, ResolveParams(f.params));
-  SOLID_ASSIGN_OR_RETURN_EXIT(std::shared_ptr<render::AssetLibrary> library,
-                              render::AssetLibrary::Open(f.assets, f.rooms.empty() ? f.assets : f.rooms,
-                                                         AssetLibraryOptionsFor(f.asset_cache_mb)));
-  SOLID_ASSIGN_OR_RETURN_EXIT(std::unique_ptr<render::LayoutSampler> sampler,
-                              render::LayoutSampler::Create(params, library));
-  if (f.export_index >= 0) {
-    SOLID_ASSIGN_OR_RETURN_EXIT(render::GeneratedLayout g,
-                                render::GenerateLayout(*sampler, f.seed, f.export_index));
-    SOLID_ASSIGN_OR_RETURN_EXIT(std::vector<uint8_t> glb, render::ExportSceneGlb(g.layout));
-    const Status written = files::WriteFileAtomically(f.export_path, glb);
-    if (!written.ok()) return Fail(written);
-    fmt::print(stderr, "solid: wrote layout {} ({} objects, {} visible, room {}) to {}\n", f.export_index,
-               g.layout.objects.size(), g.masks.visible_objects, g.layout.room->key(), f.export_path);
-    return kExitOk;
-  }
-  render::SampleOptions options;
-  options.seed = f.seed;
-  options.first = f.first;
-  options.layouts = f.layouts;
-  options.jobs = f.jobs;
-  options.cancel = InstallStopHandlers();
-  Result<render::SampleReport> report = [&] {
+int Run(SampleFlags& f) {
+  render::SampleCommandOptions& options = f.options;
+  options.source.library = AssetLibraryOptionsFor(f.asset_cache_mb);
+  if (f.export_index >= 0) options.export_scene = f.export_index;
+  options.sample.cancel = InstallStopHandlers();
+  Result<render::SampleCommandReport> report = [&] {
     ProgressLine progress("sample", "layouts");
-    options.progress = progress.Callback();
-    return render::RunSample(*sampler, options);
+    if (!options.export_scene) options.sample.progress = progress.Callback();
+    return render::SampleCommand(options);
   }();
   if (report.status().code() == StatusCode::kCancelled) {
     fmt::print(stderr, "solid: {} ({}); sample writes no file: rerun it for the report\n", report.status().message(),
                StopSignalName());
     return StopExitCode();
   }
-  if (!report.ok()) return Fail(report.status());
-  if (f.json) {
-    nlohmann::json j = report->ToJson();
-    j["params"] = render::ParamsToJson(params);
-    j["seed"] = f.seed;
-    j["first"] = f.first;
-    std::cout << j.dump(2) << "\n";
-  } else {
-    PrintReport(*report, params);
+  if (!report.ok()) return Fail(report.status(), kSampleFlags);
+  if (const std::optional<render::ExportedScene>& e = report->exported) {
+    fmt::print(stderr, "solid: wrote layout {} ({} objects, {} visible, room {}) to {}\n", e->index, e->objects,
+               e->visible_objects, e->room, e->path.string());
+    return kExitOk;
   }
-  return report->failed_layouts > 0 ? kExitProblems : kExitOk;
+  if (f.json) {
+    std::cout << report->ToJson().dump(2) << "\n";
+  } else {
+    PrintReport(*report->sample, report->params);
+  }
+  return report->sample->failed_layouts > 0 ? kExitProblems : kExitOk;
 }
 
 }  // namespace
@@ -112,24 +94,24 @@ Command AddSample(CLI::App& app) {
       "Sample layouts, run the mask pass and print the proxy metrics (objects per image, occlusion, "
       "small/medium/large shares, viewpoints) with 95% confidence intervals; or export one layout as glTF.");
   auto f = std::make_shared<SampleFlags>();
-  AddParamsFlags(cmd, &f->params);
-  cmd->add_option("--assets", f->assets, "Assets directory with the models (from `solid convert`)")->required();
-  cmd->add_option("--rooms", f->rooms, "Assets directory with the rooms (default: --assets)");
+  AddParamsFlags(cmd, &f->options.source.params);
+  cmd->add_option("--assets", f->options.source.assets, "Assets directory with the models (from `solid convert`)")->required();
+  cmd->add_option("--rooms", f->options.source.rooms, "Assets directory with the rooms (default: --assets)");
   AddAssetCacheFlag(cmd, &f->asset_cache_mb);
-  cmd->add_option("--layouts,-n", f->layouts, "Number of layouts")->capture_default_str()->check(CLI::Range(1, 100000000));
-  cmd->add_option("--first", f->first, "Index of the first layout")->capture_default_str();
-  AddSeedOption(cmd, &f->seed, "Dataset seed: layout i depends only on (params, assets, seed, i)");
-  AddJobsOption(cmd, &f->jobs, "Layouts in parallel (default: all cores)");
+  cmd->add_option("--layouts,-n", f->options.sample.layouts, "Number of layouts")->capture_default_str()->check(CLI::Range(1, 100000000));
+  cmd->add_option("--first", f->options.sample.first, "Index of the first layout")->capture_default_str();
+  AddSeedOption(cmd, &f->options.sample.seed, "Dataset seed: layout i depends only on (params, assets, seed, i)");
+  AddJobsOption(cmd, &f->options.sample.jobs, "Layouts in parallel (default: all cores)");
   cmd->add_flag("--json", f->json, "Print the report as JSON (with the resolved params)");
   cmd->add_option("--export-scene", f->export_index, "Write layout I as a glTF scene to --out instead of sampling")
       ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--out,-o", f->export_path, "Output .glb for --export-scene");
+  cmd->add_option("--out,-o", f->options.export_path, "Output .glb for --export-scene");
   return [f, cmd]() -> int {
-    if (f->params.params.empty() && f->params.preset.empty()) {
+    if (f->options.source.params.params.empty() && f->options.source.params.preset.empty()) {
       fmt::print(stderr, "solid sample: give --params FILE or --preset NAME\n{}", cmd->help());
       return kExitUsage;
     }
-    if (f->export_index >= 0 && f->export_path.empty()) {
+    if (f->export_index >= 0 && f->options.export_path.empty()) {
       fmt::print(stderr, "solid sample: --export-scene I needs --out OUT.glb\n");
       return kExitUsage;
     }

@@ -12,16 +12,16 @@
 #include <mutex>
 #include <regex>
 #include <set>
-#include <thread>
 
-#include "solid/convert/obj.h"
-#include "solid/convert/obj_to_asset.h"
+#include "obj.h"
+#include "obj_to_asset.h"
+#include "scenenet.h"
 #include "solid/convert/procedural.h"
-#include "solid/convert/scenenet.h"
 #include "solid/formats/catalog.h"
 #include "solid/formats/checksum.h"
 #include "solid/formats/files.h"
 #include "solid/formats/image_codec.h"
+#include "solid/formats/workers.h"
 
 namespace solid::convert {
 // The asset model and its glb codec live in formats (render reads them too).
@@ -427,26 +427,22 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
     return f;
   };
 
-  int threads = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::max(1, std::min<int>(threads, static_cast<int>(std::max<size_t>(1, jobs.size()))));
+  const int threads = std::min<int>(WorkerCount(options.jobs), static_cast<int>(std::max<size_t>(1, jobs.size())));
   std::atomic<bool> stop{false};  // an output error: the batch cannot go on
   int workers_left = threads;
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    pool.emplace_back([&] {
-      // Cancelled: the asset in flight is finished (its file and row stay consistent), no
-      // new one is started.
-      for (size_t i = next++; i < jobs.size() && !stop && !CancelRequested(options.cancel); i = next++) {
-        Finished f = work(jobs[i]);
-        std::lock_guard lock(mu);
-        finished.push_back(std::move(f));
-        cv.notify_one();
-      }
+  BackgroundWorkers pool(threads, [&] {
+    // Cancelled: the asset in flight is finished (its file and row stay consistent), no
+    // new one is started.
+    for (size_t i = next++; i < jobs.size() && !stop && !CancelRequested(options.cancel); i = next++) {
+      Finished f = work(jobs[i]);
       std::lock_guard lock(mu);
-      --workers_left;
+      finished.push_back(std::move(f));
       cv.notify_one();
-    });
-  }
+    }
+    std::lock_guard lock(mu);
+    --workers_left;
+    cv.notify_one();
+  });
   // The first error that stops the batch; assets finished meanwhile are still recorded.
   Status output_status = Status::Ok(), catalog_status = Status::Ok();
   size_t done = 0;
@@ -482,7 +478,7 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
     if (options.on_item) options.on_item(f.outcome);
     if (options.progress) options.progress(static_cast<int64_t>(done + 1), static_cast<int64_t>(jobs.size()));
   }
-  for (std::thread& t : pool) t.join();
+  pool.Join();
   // Closed on every path: its checkpoint is what removes the -wal and -shm files.
   const Status closed = catalog.Close();
   SOLID_RETURN_IF_ERROR(output_status);
@@ -495,6 +491,8 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
 }
 
 }  // namespace
+
+namespace {
 
 Result<ConvertReport> ConvertShapeNet(const fs::path& root, const fs::path& out, const ConvertOptions& options) {
   std::error_code ec;
@@ -513,7 +511,7 @@ Result<ConvertReport> ConvertShapeNet(const fs::path& root, const fs::path& out,
   }
   if (synset_dirs.empty()) {
     return NotFoundError(fmt::format("{}: no synset folders (8 digits) found{}", root.string(),
-                                     options.synsets.empty() ? "" : " for the requested --synsets"));
+                                     options.synsets.empty() ? "" : " among the requested synsets"));
   }
   int version = options.shapenet_version.value_or(0);
   if (version == 0) {
@@ -567,6 +565,8 @@ Result<ConvertReport> ConvertShapeNet(const fs::path& root, const fs::path& out,
   }
   return RunJobs(std::move(jobs), out, options);
 }
+
+}  // namespace
 
 namespace {
 
@@ -651,6 +651,8 @@ std::variant<Converted, AssetFailure> ConvertSceneNetRoom(const fs::path& root, 
 
 }  // namespace
 
+namespace {
+
 Result<ConvertReport> ConvertSceneNet(const fs::path& root, const fs::path& out, const ConvertOptions& options) {
   std::error_code ec;
   if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
@@ -713,6 +715,8 @@ Result<ConvertReport> ConvertSceneNet(const fs::path& root, const fs::path& out,
   return report;
 }
 
+}  // namespace
+
 Result<TextureLibraryReport> CopySceneNetTextureLibrary(const fs::path& library, const fs::path& textures) {
   std::error_code ec;
   if (!fs::is_directory(library, ec)) return NotFoundError(library.string() + ": no texture library folder");
@@ -765,8 +769,11 @@ Result<TextureLibraryReport> CopySceneNetTextureLibrary(const fs::path& library,
   return report;
 }
 
+namespace {
+
 Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path& out, const ConvertOptions& options) {
-  if (set.models < 0 || set.rooms < 0) return InvalidArgumentError("--models and --rooms must not be negative");
+  if (set.models < 0) return OptionError("procedural.models", "must not be negative");
+  if (set.rooms < 0) return OptionError("procedural.rooms", "must not be negative");
   SOLID_RETURN_IF_ERROR(CheckProceduralShapeOptions(set.shapes).WithContext("procedural shapes"));
   std::vector<Job> jobs;
   auto add = [&](bool room, int i) {
@@ -799,6 +806,23 @@ Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path
   for (int i = 0; i < set.models; ++i) add(false, i);
   for (int i = 0; i < set.rooms; ++i) add(true, i);
   return RunJobs(std::move(jobs), out, options);
+}
+
+}  // namespace
+
+Result<ConvertReport> Convert(const ConvertOptions& options) {
+  if (options.out.empty()) return OptionError("out", "give the assets directory to write");
+  switch (options.source) {
+    case Source::kShapeNet:
+      if (options.root.empty()) return OptionError("root", "give the ShapeNetCore tree to read");
+      return ConvertShapeNet(options.root, options.out, options);
+    case Source::kSceneNet:
+      if (options.root.empty()) return OptionError("root", "give the SceneNet tree to read");
+      return ConvertSceneNet(options.root, options.out, options);
+    case Source::kProcedural:
+      return ConvertProcedural(options.procedural, options.out, options);
+  }
+  return OptionError("source", "not a source kind");
 }
 
 }  // namespace solid::convert

@@ -17,7 +17,7 @@
 
 #include <fmt/format.h>
 
-#include "solid/convert/obj.h"
+#include "obj.h"
 
 namespace solid::convert {
 namespace {

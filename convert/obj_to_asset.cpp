@@ -1,4 +1,4 @@
-#include "solid/convert/obj_to_asset.h"
+#include "obj_to_asset.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>

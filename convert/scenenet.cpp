@@ -1,4 +1,4 @@
-#include "solid/convert/scenenet.h"
+#include "scenenet.h"
 
 #include <algorithm>
 #include <array>

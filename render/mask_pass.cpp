@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 
 #include "instance_scene.h"
-#include "workers.h"
+#include "solid/formats/workers.h"
 
 namespace solid::render {
 namespace {

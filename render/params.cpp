@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <optional>
 #include <span>
 #include <string>
@@ -437,6 +438,36 @@ Status CheckParams(const LayoutParams& params, std::string_view source) {
   const std::vector<json::Violation> problems = FindProblems(params);
   if (problems.empty()) return Status::Ok();
   return Report(source, {}, problems, Naming::kKnob, StatusCode::kInvalidArgument);
+}
+
+Result<std::pair<int, int>> ParseResolution(std::string_view field, std::string_view text) {
+  SOLID_ASSIGN_OR_RETURN(const auto side,
+                         schemas::IntegerRange("params.schema.json", "/properties/render/properties/resolution/items"));
+  const std::string copy(text);
+  int w = 0, h = 0;
+  char x = 0, rest = 0;
+  if (std::sscanf(copy.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < side.first ||
+      h < side.first || w > side.second || h > side.second) {
+    return OptionError(field, fmt::format("{}: expected WIDTHxHEIGHT, each {}..{}", text, side.first, side.second));
+  }
+  return std::pair{w, h};
+}
+
+Result<LayoutParams> ResolveParams(const ParamsSource& source) {
+  if (source.params.empty() == source.preset.empty()) {
+    return OptionError("params", source.params.empty() ? "give a params file or a preset"
+                                                       : "give a params file or a preset, not both");
+  }
+  SOLID_ASSIGN_OR_RETURN(LayoutParams params, !source.params.empty() ? LoadParamsFile(source.params)
+                                                                      : LoadPreset(source.preset));
+  if (!source.resolution.empty()) {
+    SOLID_ASSIGN_OR_RETURN(std::tie(params.width, params.height), ParseResolution("resolution", source.resolution));
+  }
+  if (!source.scale_classes_at.empty()) {
+    SOLID_ASSIGN_OR_RETURN(std::tie(params.scale_width, params.scale_height),
+                           ParseResolution("scale_classes_at", source.scale_classes_at));
+  }
+  return params;
 }
 
 }  // namespace solid::render

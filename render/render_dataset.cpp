@@ -6,6 +6,8 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <mutex>
 #include <numbers>
@@ -27,7 +29,7 @@
 #include "solid/render/params.h"
 #include "solid/render/sample.h"
 
-#include "workers.h"
+#include "solid/formats/workers.h"
 
 namespace solid::render {
 namespace {
@@ -155,8 +157,7 @@ class Renderer {
         changed.notify_all();
       }
     };
-    std::vector<std::thread> pool;
-    for (int t = 0; t < jobs; ++t) pool.emplace_back(worker);
+    BackgroundWorkers pool(jobs, worker);
 
     Status status;
     std::vector<std::string> failures;
@@ -211,7 +212,7 @@ class Renderer {
       stop = true;
     }
     changed.notify_all();
-    for (std::thread& t : pool) t.join();
+    pool.Join();
     SOLID_RETURN_IF_ERROR(status.WithContext(paths_.shard(shard).string()));
 
     report_.failed_images += static_cast<int64_t>(failures.size());
@@ -474,9 +475,9 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
 Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options) {
   const auto start = Clock::now();
   bool report_adopted = false;
-  if (options.images < 0) return InvalidArgumentError("--images must be >= 0");
-  if (options.shard_size < 1) return InvalidArgumentError("--shard-size must be >= 1");
-  if (options.query_shard_models < 1) return InvalidArgumentError("query_shard_models must be >= 1");
+  if (options.images < 0) return OptionError("images", "must be >= 0");
+  if (options.shard_size < 1) return OptionError("shard_size", "must be >= 1");
+  if (options.query_shard_models < 1) return OptionError("query_shard_models", "must be >= 1");
   const Manifest manifest = RenderManifest(sampler, options);
   const DatasetPaths paths(options.out);
 
@@ -514,7 +515,7 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
   if (options.shards) {
     std::tie(first, last) = *options.shards;
     if (first < 0 || last < first || last >= shard_count) {
-      return InvalidArgumentError(fmt::format("--shard(s) {}-{}: the dataset has shards 0-{} ({} images of {})", first,
+      return OptionError("shards", fmt::format("{}-{}: the dataset has shards 0-{} ({} images of {})", first,
                                               last, shard_count - 1, manifest.images, manifest.shard_size));
     }
   }
@@ -673,6 +674,40 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
   report.seconds = MillisecondsSince(start) / 1000;
   report.peak_rss_bytes = PeakRssBytes();
   return report;
+}
+
+Result<RenderCommandReport> RenderCommand(const RenderCommandOptions& options) {
+  SOLID_ASSIGN_OR_RETURN(const std::unique_ptr<LayoutSampler> sampler, OpenSampler(options.source));
+  RenderOptions render = options.render;
+  render.query_views.render_size = QueryRenderSize(render.query_views.long_side);
+  render.query_views.samples_per_pixel = render.shading.samples_per_pixel;
+  render.texture_cache_bytes = options.source.library.cache_bytes;
+  SOLID_ASSIGN_OR_RETURN(RenderReport report, RenderDataset(*sampler, render));
+  return RenderCommandReport{sampler->params(), std::move(report)};
+}
+
+int QueryRenderSize(int long_side) { return (long_side * 12 + 6) / 7; }
+
+Result<std::pair<int64_t, int64_t>> ParseShardRange(std::string_view field, std::string_view text) {
+  const std::string copy(text);
+  long long a = -1, b = -1;
+  char dash = 0, rest = 0;
+  if (std::sscanf(copy.c_str(), "%lld%c%lld%c", &a, &dash, &b, &rest) != 3 || dash != '-' || a < 0 || b < a) {
+    return OptionError(field, fmt::format("{}: expected FIRST-LAST, e.g. 0-15", text));
+  }
+  return std::pair<int64_t, int64_t>{a, b};
+}
+
+Result<std::optional<ScheduledShard>> ShardFromEnvironment() {
+  for (const char* variable : {"SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"}) {
+    const char* value = std::getenv(variable);
+    if (value == nullptr || *value == '\0') continue;
+    char* end = nullptr;
+    const long long k = std::strtoll(value, &end, 10);
+    if (*end != '\0' || k < 0) return InvalidArgumentError(fmt::format("{}={}: not a shard index", variable, value));
+    return std::optional(ScheduledShard{k, variable});
+  }
+  return std::optional<ScheduledShard>();
 }
 
 }  // namespace solid::render

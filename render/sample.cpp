@@ -11,7 +11,9 @@
 
 #include <fmt/format.h>
 
-#include "workers.h"
+#include "solid/formats/files.h"
+#include "solid/formats/workers.h"
+#include "scene_export.h"
 
 namespace solid::render {
 namespace {
@@ -75,7 +77,8 @@ void ViewpointHistogram::Add(double azimuth, double elevation) {
 }
 
 Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions& options) {
-  if (options.layouts < 0 || options.first < 0) return InvalidArgumentError("layouts and first must be >= 0");
+  if (options.layouts < 0) return OptionError("layouts", "must be >= 0");
+  if (options.first < 0) return OptionError("first", "must be >= 0");
   const auto start = std::chrono::steady_clock::now();
   const int64_t n = options.layouts;
   std::vector<LayoutSummary> summaries(static_cast<size_t>(n));
@@ -120,11 +123,9 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
     }
   };
   const int jobs = WorkerCount(options.jobs);
-  std::vector<std::thread> pool;
-  for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
   if (options.progress) {
-    // The calling thread reports progress and works.
-    std::thread reporter_worker(worker);
+    // The calling thread reports progress while `jobs` threads work.
+    BackgroundWorkers pool(jobs, worker);
     while (done.load() < n && !CancelRequested(options.cancel)) {
       {
         std::lock_guard lock(error_mutex);
@@ -133,12 +134,11 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
       options.progress(done.load(), n);
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
-    reporter_worker.join();
+    pool.Join();
     options.progress(done.load(), n);
   } else {
-    worker();
+    RunOnThreads(jobs, worker);
   }
-  for (std::thread& t : pool) t.join();
   SOLID_RETURN_IF_ERROR(error);
   if (done.load() < n) {
     return CancelledError(fmt::format("sample: stopped after {} of {} layouts", done.load(), n));
@@ -209,6 +209,45 @@ nlohmann::json SampleReport::ToJson() const {
   j["seconds"] = seconds;
   j["sample_ms_per_layout"] = sample_ms_per_layout;
   j["mask_ms_per_layout"] = mask_ms_per_layout;
+  return j;
+}
+
+Result<std::unique_ptr<LayoutSampler>> OpenSampler(const SamplerSource& source) {
+  SOLID_ASSIGN_OR_RETURN(const LayoutParams params, ResolveParams(source.params));
+  SOLID_ASSIGN_OR_RETURN(std::shared_ptr<AssetLibrary> library,
+                         AssetLibrary::Open(source.assets, source.rooms.empty() ? source.assets : source.rooms,
+                                            source.library));
+  return LayoutSampler::Create(params, std::move(library));
+}
+
+Result<SampleCommandReport> SampleCommand(const SampleCommandOptions& options) {
+  if (options.export_scene) {
+    if (*options.export_scene < 0) return OptionError("export_scene", "a layout index is >= 0");
+    if (options.export_path.empty()) return OptionError("export_path", "export_scene needs the .glb to write");
+  }
+  SOLID_ASSIGN_OR_RETURN(const std::unique_ptr<LayoutSampler> sampler, OpenSampler(options.source));
+  SampleCommandReport report;
+  report.params = sampler->params();
+  report.seed = options.sample.seed;
+  report.first = options.sample.first;
+  if (options.export_scene) {
+    SOLID_ASSIGN_OR_RETURN(const GeneratedLayout g, GenerateLayout(*sampler, options.sample.seed, *options.export_scene));
+    SOLID_ASSIGN_OR_RETURN(const std::vector<uint8_t> glb, ExportSceneGlb(g.layout));
+    SOLID_RETURN_IF_ERROR(files::WriteFileAtomically(options.export_path, glb));
+    report.exported = ExportedScene{*options.export_scene, g.layout.objects.size(),
+                                    static_cast<size_t>(g.masks.visible_objects), g.layout.room->key(),
+                                    options.export_path};
+    return report;
+  }
+  SOLID_ASSIGN_OR_RETURN(report.sample, RunSample(*sampler, options.sample));
+  return report;
+}
+
+nlohmann::json SampleCommandReport::ToJson() const {
+  nlohmann::json j = sample ? sample->ToJson() : nlohmann::json::object();
+  j["params"] = ParamsToJson(params);
+  j["seed"] = seed;
+  j["first"] = first;
   return j;
 }
 

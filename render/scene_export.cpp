@@ -1,4 +1,4 @@
-#include "solid/render/scene_export.h"
+#include "scene_export.h"
 
 #include <cmath>
 #include <cstring>

@@ -10,7 +10,7 @@
 
 #include "solid/formats/random.h"
 #include "streams.h"
-#include "workers.h"
+#include "solid/formats/workers.h"
 
 namespace solid::render {
 

@@ -95,6 +95,24 @@ TEST(Provenance, F5_NegativeSeedsAndJobCountsAreUsageErrors) {
   EXPECT_FALSE(fs::exists(assets));
 }
 
+// Library calls name the options field they refuse; each command prints the flag that sets
+// it instead (cli::Fail with the command's table).
+TEST(OptionErrors, EachCommandNamesTheFlagOfTheFieldItsLibraryCallRefused) {
+  TempDir dir;
+  const fs::path out = dir.path() / "d";
+  const std::string assets = ShellQuote(render::testing::ProceduralAssetsDir().string());
+  Walk({{"convert", Solid("convert procedural " + ShellQuote((dir.path() / "a").string()) + " --models -1"), 2,
+         "solid: --models: must not be negative"},
+        {"sample", Solid("sample --preset occlusion --assets " + assets + " --layouts 1 --first -1"), 2,
+         "solid: --first: must be >= 0"},
+        {"sample params", Solid("sample --preset occlusion --assets " + assets + " --scale-classes-at 64"), 2,
+         "solid: --scale-classes-at: 64: expected WIDTHxHEIGHT"}});
+  const auto made = RunCommand(Render(out, "--jobs 1"));
+  ASSERT_EQ(made.exit_status, 0) << made.output;
+  Walk({{"render", Render(out, "--jobs 1 --shards 1-2"), 2, "solid: --shards: 1-2: the dataset has shards 0-0"},
+        {"render --shard", Render(out, "--jobs 1 --shard 3"), 2, "solid: --shard: 3-3: the dataset has shards 0-0"}});
+}
+
 // The F6: a params value over a schema limit exited 2, "preset": "nope" in a params
 // file 2 where --preset nope exits 3, validate of a missing path 1, index of a missing
 // dataset 4. README's table: 2 for flags, 3 for bad input, 1 for problems found.

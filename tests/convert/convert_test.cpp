@@ -16,10 +16,10 @@
 #include "fixtures/shared_testdata.h"
 #include "fixtures/triangle_match.h"
 #include "formats/test_util.h"
-#include "solid/convert/obj.h"
-#include "solid/convert/obj_to_asset.h"
+#include "obj.h"
+#include "obj_to_asset.h"
 #include "solid/convert/procedural.h"
-#include "solid/convert/scenenet.h"
+#include "scenenet.h"
 #include "solid/formats/glb.h"
 #include "solid/formats/catalog.h"
 #include "solid/formats/files.h"
@@ -68,11 +68,31 @@ ConvertOptions TwoJobs() {
   return o;
 }
 
+// Convert of each source kind, with `o`'s other options.
+Result<ConvertReport> ShapeNet(const fs::path& root, const fs::path& out, ConvertOptions o) {
+  o.source = Source::kShapeNet;
+  o.root = root;
+  o.out = out;
+  return Convert(o);
+}
+Result<ConvertReport> SceneNet(const fs::path& root, const fs::path& out, ConvertOptions o) {
+  o.source = Source::kSceneNet;
+  o.root = root;
+  o.out = out;
+  return Convert(o);
+}
+Result<ConvertReport> Procedural(const ProceduralSet& set, const fs::path& out, ConvertOptions o) {
+  o.source = Source::kProcedural;
+  o.procedural = set;
+  o.out = out;
+  return Convert(o);
+}
+
 TEST(ConvertShapeNet, V2TreeGivesFiveModelsAndTwoFailures) {
   TempDir dir;
   fs::path root = dir.path() / "ShapeNetCore.v2", out = dir.path() / "assets";
   ASSERT_OK(fixtures::WriteShapeNetV2Tree(root));
-  auto report = ConvertShapeNet(root, out, TwoJobs());
+  auto report = ShapeNet(root, out, TwoJobs());
   ASSERT_OK(report.status());
   EXPECT_EQ(report->assets, 7);
   EXPECT_EQ(report->ok + report->ok_with_warnings, 5);
@@ -126,8 +146,8 @@ TEST(ConvertShapeNet, RerunConvertsOnlyWhatChanged) {
   TempDir dir;
   fs::path root = dir.path() / "v2", out = dir.path() / "assets";
   ASSERT_OK(fixtures::WriteShapeNetV2Tree(root));
-  ASSERT_OK(ConvertShapeNet(root, out, TwoJobs()).status());
-  auto again = ConvertShapeNet(root, out, TwoJobs());
+  ASSERT_OK(ShapeNet(root, out, TwoJobs()).status());
+  auto again = ShapeNet(root, out, TwoJobs());
   ASSERT_OK(again.status());
   EXPECT_EQ(again->up_to_date, 7);
   EXPECT_EQ(again->ok + again->ok_with_warnings + again->failed, 0);
@@ -135,13 +155,13 @@ TEST(ConvertShapeNet, RerunConvertsOnlyWhatChanged) {
   // A changed input, a deleted output and new options each cause a reconversion.
   { std::ofstream(root / "03001627/u01234567-89ab-cdef-0123-456789abcdef/models/model_normalized.mtl", std::ios::app) << "\n"; }
   fs::remove(out / "models/02992529/fedcba9876543210fedcba9876543210.glb");
-  auto third = ConvertShapeNet(root, out, TwoJobs());
+  auto third = ShapeNet(root, out, TwoJobs());
   ASSERT_OK(third.status());
   EXPECT_EQ(third->up_to_date, 5);
   EXPECT_EQ(third->ok + third->ok_with_warnings, 2);
   ConvertOptions finer = TwoJobs();
   finer.draco.position_bits = 16;
-  auto fourth = ConvertShapeNet(root, out, finer);
+  auto fourth = ShapeNet(root, out, finer);
   ASSERT_OK(fourth.status());
   EXPECT_EQ(fourth->up_to_date, 0) << "new options reconvert everything, failures included";
   EXPECT_EQ(fourth->ok + fourth->ok_with_warnings, 5);
@@ -154,22 +174,22 @@ TEST(ConvertShapeNet, LimitAndSynsetFilters) {
   ASSERT_OK(fixtures::WriteShapeNetV2Tree(root));
   ConvertOptions o = TwoJobs();
   o.synsets = {"02992529", "04401088"};
-  auto filtered = ConvertShapeNet(root, dir.path() / "a", o);
+  auto filtered = ShapeNet(root, dir.path() / "a", o);
   ASSERT_OK(filtered.status());
   EXPECT_EQ(filtered->assets, 2);
   o.synsets.clear();
   o.limit = 3;
-  auto limited = ConvertShapeNet(root, dir.path() / "b", o);
+  auto limited = ShapeNet(root, dir.path() / "b", o);
   ASSERT_OK(limited.status());
   EXPECT_EQ(limited->assets, 3);
-  EXPECT_EQ(ConvertShapeNet(dir.path() / "nowhere", dir.path() / "c", o).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(ShapeNet(dir.path() / "nowhere", dir.path() / "c", o).status().code(), StatusCode::kNotFound);
 }
 
 TEST(ConvertShapeNet, V1ModelsAreRotatedToTheV2Frame) {
   TempDir dir;
   fs::path root = dir.path() / "v1", out = dir.path() / "assets";
   ASSERT_OK(fixtures::WriteShapeNetV1Tree(root));
-  auto report = ConvertShapeNet(root, out, TwoJobs());
+  auto report = ShapeNet(root, out, TwoJobs());
   ASSERT_OK(report.status());
   EXPECT_EQ(report->failed, 1);
   EXPECT_EQ(report->failure_codes["empty_geometry"], 1);
@@ -189,7 +209,7 @@ TEST(ConvertSceneNet, KeepsOnlyStructureWithNamesVerbatim) {
   TempDir dir;
   fs::path root = dir.path() / "scenenet", out = dir.path() / "assets";
   ASSERT_OK(fixtures::WriteSceneNetTree(root));
-  auto report = ConvertSceneNet(root, out, TwoJobs());
+  auto report = SceneNet(root, out, TwoJobs());
   ASSERT_OK(report.status());
   EXPECT_EQ(report->assets, 5);
   EXPECT_EQ(report->failed, 1);
@@ -227,6 +247,26 @@ TEST(ConvertSceneNet, KeepsOnlyStructureWithNamesVerbatim) {
   EXPECT_EQ(rows["SceneNetData/1Office/fixture_mm"].error_code, std::optional<std::string>("suspect_units"));
 }
 
+TEST(Convert, WrongOptionsNameTheirField) {
+  TempDir dir;
+  ConvertOptions o = TwoJobs();
+  EXPECT_EQ(Convert(o).status().option(), "out");
+  o.out = dir.path() / "assets";
+  o.source = Source::kShapeNet;
+  EXPECT_EQ(Convert(o).status().option(), "root");
+  o.source = Source::kSceneNet;
+  EXPECT_EQ(Convert(o).status().option(), "root");
+  o.source = Source::kProcedural;
+  o.procedural.models = -1;
+  const Status models = Convert(o).status();
+  EXPECT_EQ(models.option(), "procedural.models");
+  EXPECT_EQ(models.message(), "procedural.models: must not be negative");
+  o.procedural.models = 1;
+  o.procedural.rooms = -1;
+  EXPECT_EQ(Convert(o).status().option(), "procedural.rooms");
+  EXPECT_FALSE(fs::exists(o.out)) << "a refused option writes nothing";
+}
+
 TEST(ConvertProcedural, IsDeterministicAndInspectable) {
   TempDir dir;
   ProceduralSet set;
@@ -235,8 +275,8 @@ TEST(ConvertProcedural, IsDeterministicAndInspectable) {
   set.seed = 7;
   ConvertOptions one;
   one.jobs = 1;
-  auto a = ConvertProcedural(set, dir.path() / "a", one);
-  auto b = ConvertProcedural(set, dir.path() / "b", TwoJobs());
+  auto a = Procedural(set, dir.path() / "a", one);
+  auto b = Procedural(set, dir.path() / "b", TwoJobs());
   ASSERT_OK(a.status());
   ASSERT_OK(b.status());
   EXPECT_EQ(a->ok, 8);
@@ -264,7 +304,7 @@ TEST(ConvertShapeNet, NonUtf8TextInWarningsDoesNotStopTheBatch) {
   const fs::path model = dir.path() / "v1/02958343/00000000000000000000000000000004";
   fs::create_directories(model);
   std::ofstream(model / "model.obj", std::ios::binary) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl Terr\xe6n\nf 1 2 3\n";
-  auto report = ConvertShapeNet(dir.path() / "v1", dir.path() / "out", TwoJobs());
+  auto report = ShapeNet(dir.path() / "v1", dir.path() / "out", TwoJobs());
   ASSERT_OK(report.status());
   EXPECT_EQ(report->ok_with_warnings, 1);
   auto rows = CatalogRows(dir.path() / "out");
@@ -291,7 +331,7 @@ TEST(ConvertSceneNet, TextureLibrary_Walls132AndMetalPlasticAreUnmatchedAndUnkno
   ConvertOptions o = TwoJobs();
   o.texture_library = true;
   o.keep_all_room_objects = true;  // the metal_plastic.001 material is only on props
-  auto report = ConvertSceneNet(root, out, o);
+  auto report = SceneNet(root, out, o);
   ASSERT_OK(report.status());
   ASSERT_TRUE(report->textures.has_value());
   const TextureLibraryReport& t = *report->textures;
@@ -331,7 +371,7 @@ TEST(ConvertSceneNet, TextureLibrary_Walls132AndMetalPlasticAreUnmatchedAndUnkno
                         {"Floor.1001", "Floor"}, {"Walls.001", "Walls"}, {"cupboard.000", "cupboard"}}));
 
   // A rerun changes nothing and still reports, from the catalog.
-  auto again = ConvertSceneNet(root, out, o);
+  auto again = SceneNet(root, out, o);
   ASSERT_OK(again.status());
   EXPECT_EQ(again->up_to_date, again->assets);
   EXPECT_EQ(again->textures->files_copied, 0);
@@ -345,7 +385,7 @@ TEST(ConvertSceneNet, TextureLibrary_Walls132AndMetalPlasticAreUnmatchedAndUnkno
   }
   ASSERT_OK(fixtures::WriteSceneNetTree(root));
   fs::copy(root / "texture_library/wall", root / "texture_library/Walls");
-  auto third = ConvertSceneNet(root, out, o);
+  auto third = SceneNet(root, out, o);
   ASSERT_OK(third.status());
   EXPECT_EQ(third->textures->files_copied, 2) << "the torn floor image and the new Walls/ image";
   EXPECT_EQ(third->up_to_date, 0);
@@ -359,18 +399,18 @@ TEST(ConvertSceneNet, TextureLibrary_DefaultRunReportsOnlyMaterialsOfKeptObjects
   ASSERT_OK(fixtures::WriteSceneNetTree(root));
   ConvertOptions o = TwoJobs();
   o.texture_library = true;
-  auto report = ConvertSceneNet(root, dir.path() / "assets", o);
+  auto report = SceneNet(root, dir.path() / "assets", o);
   ASSERT_OK(report.status());
   EXPECT_EQ(report->textures->unmatched.count("Walls.132"), 1u);
   EXPECT_EQ(report->textures->unmatched.count("metal_plastic.001"), 0u) << "only props use it, and they are dropped";
 
-  auto without = ConvertSceneNet(root, dir.path() / "plain", TwoJobs());
+  auto without = SceneNet(root, dir.path() / "plain", TwoJobs());
   ASSERT_OK(without.status());
   EXPECT_FALSE(without->textures.has_value());
   EXPECT_FALSE(fs::exists(dir.path() / "plain/textures"));
 
   fs::remove_all(root / "texture_library");
-  EXPECT_EQ(ConvertSceneNet(root, dir.path() / "again", o).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(SceneNet(root, dir.path() / "again", o).status().code(), StatusCode::kNotFound);
 }
 
 // ---------------------------------------------------------------------------
@@ -389,16 +429,16 @@ FixtureOutputs ConvertEveryFixture(const fs::path& dir) {
   EXPECT_OK(fixtures::WriteShapeNetV1Tree(dir / "v1"));
   EXPECT_OK(fixtures::WriteShapeNetV2Tree(dir / "v2"));
   EXPECT_OK(fixtures::WriteSceneNetTree(dir / "scenenet"));
-  EXPECT_OK(ConvertShapeNet(dir / "v1", o.shapenet_v1, TwoJobs()).status());
-  EXPECT_OK(ConvertShapeNet(dir / "v2", o.shapenet_v2, TwoJobs()).status());
+  EXPECT_OK(ShapeNet(dir / "v1", o.shapenet_v1, TwoJobs()).status());
+  EXPECT_OK(ShapeNet(dir / "v2", o.shapenet_v2, TwoJobs()).status());
   ConvertOptions all = TwoJobs();
   all.keep_all_room_objects = true;
-  EXPECT_OK(ConvertSceneNet(dir / "scenenet", o.scenenet, all).status());
+  EXPECT_OK(SceneNet(dir / "scenenet", o.scenenet, all).status());
   ProceduralSet set;
   set.models = kShapeFamilyCount;
   set.rooms = 2;
   set.seed = kProceduralSeed;
-  EXPECT_OK(ConvertProcedural(set, o.procedural, TwoJobs()).status());
+  EXPECT_OK(Procedural(set, o.procedural, TwoJobs()).status());
   return o;
 }
 
@@ -592,7 +632,7 @@ TEST(ConvertCorpus, AssimpTestModelsConvertOrFailWithAReason) {
   }
   ConvertOptions options = TwoJobs();
   options.shapenet_version = 1;
-  auto report = ConvertShapeNet(root, dir.path() / "out", options);
+  auto report = ShapeNet(root, dir.path() / "out", options);
   ASSERT_OK(report.status());
   EXPECT_EQ(report->assets, static_cast<int64_t>(objs.size()));
   int converted = 0, failed = 0;
@@ -624,7 +664,7 @@ TEST(ConvertCorpus, AssimpTestModelsConvertOrFailWithAReason) {
 TEST(ConvertOnSharedData, RealShapeNetModelsConvertWithTheirMaterialsAndTexture) {
   SOLID_SHARED_TESTDATA_OR_SKIP(root, "real/shapenet");
   TempDir dir;
-  auto report = ConvertShapeNet(root, dir.path() / "out", TwoJobs());
+  auto report = ShapeNet(root, dir.path() / "out", TwoJobs());
   ASSERT_OK(report.status());
   EXPECT_EQ(report->assets, 6);
   EXPECT_EQ(report->failed, 0);
@@ -649,7 +689,7 @@ TEST(ConvertOnSharedData, RealShapeNetModelsConvertWithTheirMaterialsAndTexture)
 TEST(ConvertOnSharedData, SceneNetRgbdLayoutKeepsWallsFloorAndCeiling) {
   SOLID_SHARED_TESTDATA_OR_SKIP(root, "real/scenenet-rgbd");
   TempDir dir;
-  auto report = ConvertSceneNet(root, dir.path() / "out", TwoJobs());
+  auto report = SceneNet(root, dir.path() / "out", TwoJobs());
   ASSERT_OK(report.status());
   EXPECT_EQ(report->assets, 1);
   EXPECT_EQ(report->failed, 0);

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "solid/convert/obj.h"
+#include "obj.h"
 
 namespace solid::convert {
 namespace {

@@ -1,6 +1,6 @@
 // BuildAssetFromObj against the single-quirk fixtures of input-formats section 5.3,
 // built as ObjData/MtlData in code so that they test the cleaning rules, not ReadObj.
-#include "solid/convert/obj_to_asset.h"
+#include "obj_to_asset.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <span>
 
-#include "solid/convert/obj.h"
+#include "obj.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::span<const uint8_t> bytes(data, size);

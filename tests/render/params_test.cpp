@@ -544,5 +544,32 @@ TEST(CheckParams, AgreesWithTheSchemaAtTheBounds) {
   }
 }
 
+TEST(ResolveParams, AppliesTheOverridesToTheFileOrPresetAndNamesWrongFields) {
+  testing::TempDir dir;
+  Result<LayoutParams> p = ResolveParams({.preset = "occlusion", .resolution = "320x240", .scale_classes_at = "640x480"});
+  ASSERT_OK(p.status());
+  LayoutParams expected = LoadPreset("occlusion").value();
+  expected.width = 320;
+  expected.height = 240;
+  expected.scale_width = 640;
+  expected.scale_height = 480;
+  EXPECT_EQ(*p, expected);
+
+  const std::filesystem::path file = dir.path() / "params.json";
+  std::ofstream(file) << R"({"preset": "rotation", "render": {"resolution": [160, 120]}})";
+  p = ResolveParams({.params = file});
+  ASSERT_OK(p.status());
+  EXPECT_EQ(p->width, 160);
+  EXPECT_EQ(p->scene, LoadPreset("rotation")->scene);
+
+  EXPECT_EQ(ResolveParams({}).status().option(), "params");
+  EXPECT_EQ(ResolveParams({.params = file, .preset = "occlusion"}).status().option(), "params");
+  EXPECT_EQ(ResolveParams({.preset = "nope"}).status().code(), StatusCode::kNotFound) << "as --preset nope, exit 3";
+  const Status resolution = ResolveParams({.preset = "occlusion", .resolution = "8193x48"}).status();
+  EXPECT_EQ(resolution.option(), "resolution");
+  EXPECT_EQ(resolution.message(), "resolution: 8193x48: expected WIDTHxHEIGHT, each 16..8192");
+  EXPECT_EQ(ResolveParams({.preset = "occlusion", .scale_classes_at = "640x"}).status().option(), "scale_classes_at");
+}
+
 }  // namespace
 }  // namespace solid::render

@@ -32,7 +32,9 @@ struct DefaultRooms {
   DefaultRooms() {
     convert::ConvertOptions options;
     options.jobs = 2;
-    const auto report = convert::ConvertProcedural({.models = 0, .rooms = 8, .seed = 1}, path, options);
+    options.out = path;
+    options.procedural = {.models = 0, .rooms = 8, .seed = 1};
+    const auto report = convert::Convert(options);
     if (!report.ok() || report->failed != 0) std::abort();
   }
   ~DefaultRooms() {
@@ -127,7 +129,10 @@ TEST(PresetDirectionOnSharedData, SceneNetBackgroundIsNoLowerOnTheSharedLayout) 
       std::filesystem::temp_directory_path() / ("solid-direction-rooms-" + std::to_string(::getpid()));
   convert::ConvertOptions convert_options;
   convert_options.jobs = 2;
-  ASSERT_EQ(convert::ConvertSceneNet(scenenet, rooms, convert_options).value().failed, 0);
+  convert_options.source = convert::Source::kSceneNet;
+  convert_options.root = scenenet;
+  convert_options.out = rooms;
+  ASSERT_EQ(convert::Convert(convert_options).value().failed, 0);
   auto library = AssetLibrary::Open(testing::ProceduralAssetsDir(), rooms).value();
   std::map<std::string, SampleReport> reports;
   for (const std::string name : {"rotation", "scenenet-background"}) {

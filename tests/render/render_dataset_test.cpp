@@ -2,9 +2,13 @@
 // the same data whatever the shard size, thread count, interruptions or repairs.
 #include "solid/render/render_dataset.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <fstream>
+#include <optional>
+#include <string>
 
 #include "formats/test_util.h"
 #include "render/dataset_digest.h"
@@ -200,6 +204,175 @@ TEST(RenderDataset, ShardRangesFillOneDatasetLikeOneRun) {
   EXPECT_EQ(Digest(dir.path() / "parts"), Digest(dir.path() / "whole"));
   part.shards = std::pair{int64_t{3}, int64_t{3}};
   EXPECT_EQ(RenderDataset(*sampler, part).status().code(), StatusCode::kInvalidArgument);
+}
+
+// `solid render` in process: the params resolved from their source, the assets opened, and
+// the query render size and texture cache derived, as RenderDataset with them set by hand.
+TEST(RenderCommand, EqualsRenderDatasetWithTheDerivedSettings) {
+  TempDir dir;
+  RenderCommandOptions options;
+  options.source.params = {.preset = "random-placement", .resolution = "96x72"};
+  options.source.assets = testing::ProceduralAssetsDir();
+  options.render = SmallRender(dir.path() / "command", 6, 3, 2);
+  options.render.query_views.render_size = 0;  // derived
+  options.render.query_views.samples_per_pixel = 0;  // derived
+  const auto report = RenderCommand(options);
+  ASSERT_OK(report.status());
+  EXPECT_EQ(report->params.width, 96);
+  EXPECT_EQ(report->render.shards_rendered, 2);
+  EXPECT_EQ(report->ToJson(), report->render.ToJson());
+
+  RenderOptions by_hand = SmallRender(dir.path() / "by-hand", 6, 3, 2);
+  by_hand.query_views.render_size = QueryRenderSize(48);
+  ASSERT_OK(RenderDataset(*SmallSampler(), by_hand).status());
+  EXPECT_EQ(Digest(dir.path() / "command"), Digest(dir.path() / "by-hand"));
+}
+
+TEST(RenderCommand, QueryViewsRenderAt384For224StoredAndInTheSameRatioOtherwise) {
+  EXPECT_EQ(QueryRenderSize(224), 384);
+  EXPECT_EQ(QueryRenderSize(48), 83);
+  EXPECT_EQ(QueryRenderSize(16), 28);
+}
+
+TEST(RenderCommand, WrongOptionsNameTheirField) {
+  TempDir dir;
+  RenderCommandOptions options;
+  options.source.assets = testing::ProceduralAssetsDir();
+  options.render = SmallRender(dir.path() / "d", 2, 2, 1);
+  EXPECT_EQ(RenderCommand(options).status().option(), "params") << "neither a params file nor a preset";
+  options.source.params.preset = "occlusion";
+  options.source.params.resolution = "96x";
+  EXPECT_EQ(RenderCommand(options).status().option(), "resolution");
+  options.source.params.resolution = "96x72";
+  options.source.params.scale_classes_at = "8x8";
+  EXPECT_EQ(RenderCommand(options).status().option(), "scale_classes_at");
+  options.source.params.scale_classes_at.clear();
+
+  const auto sampler = SmallSampler();
+  RenderOptions render = SmallRender(dir.path() / "d", -1, 2, 1);
+  EXPECT_EQ(RenderDataset(*sampler, render).status().option(), "images");
+  render = SmallRender(dir.path() / "d", 2, 0, 1);
+  EXPECT_EQ(RenderDataset(*sampler, render).status().option(), "shard_size");
+  render = SmallRender(dir.path() / "d", 2, 2, 1);
+  render.query_shard_models = 0;
+  EXPECT_EQ(RenderDataset(*sampler, render).status().option(), "query_shard_models");
+  render = SmallRender(dir.path() / "d", 2, 2, 1);
+  render.queries = false;
+  render.shards = std::pair<int64_t, int64_t>{1, 1};
+  const Status shards = RenderDataset(*sampler, render).status();
+  EXPECT_EQ(shards.option(), "shards");
+  EXPECT_EQ(shards.message(), "shards: 1-1: the dataset has shards 0-0 (2 images of 2)");
+}
+
+TEST(RenderCommand, ShardRangesParseOrNameTheirField) {
+  EXPECT_EQ(ParseShardRange("shards", "3-7").value(), (std::pair<int64_t, int64_t>{3, 7}));
+  EXPECT_EQ(ParseShardRange("shards", "0-0").value(), (std::pair<int64_t, int64_t>{0, 0}));
+  for (const char* bad : {"7-3", "-1-2", "3", "3-", "3-4x", "a-b"}) {
+    const Status status = ParseShardRange("shards", bad).status();
+    EXPECT_EQ(status.option(), "shards") << bad;
+    EXPECT_EQ(status.message(), fmt::format("shards: {}: expected FIRST-LAST, e.g. 0-15", bad));
+  }
+}
+
+// Restores an environment variable when the test ends.
+class ScopedVariable {
+ public:
+  ScopedVariable(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    if (value != nullptr) {
+      ::setenv(name, value, 1);
+    } else {
+      ::unsetenv(name);
+    }
+  }
+  ~ScopedVariable() {
+    if (old_) {
+      ::setenv(name_, old_->c_str(), 1);
+    } else {
+      ::unsetenv(name_);
+    }
+  }
+
+ private:
+  const char* name_;
+  std::optional<std::string> old_;
+};
+
+TEST(RenderCommand, TheSchedulersArrayIndexIsTheShard) {
+  {
+    ScopedVariable slurm("SLURM_ARRAY_TASK_ID", nullptr), kubernetes("JOB_COMPLETION_INDEX", nullptr);
+    EXPECT_FALSE(ShardFromEnvironment().value().has_value());
+  }
+  {
+    ScopedVariable slurm("SLURM_ARRAY_TASK_ID", "4"), kubernetes("JOB_COMPLETION_INDEX", "9");
+    const auto shard = ShardFromEnvironment().value();
+    ASSERT_TRUE(shard.has_value());
+    EXPECT_EQ(shard->shard, 4);
+    EXPECT_EQ(shard->variable, "SLURM_ARRAY_TASK_ID");
+  }
+  {
+    ScopedVariable slurm("SLURM_ARRAY_TASK_ID", ""), kubernetes("JOB_COMPLETION_INDEX", "9");
+    EXPECT_EQ(ShardFromEnvironment().value()->variable, "JOB_COMPLETION_INDEX");
+  }
+  {
+    ScopedVariable slurm("SLURM_ARRAY_TASK_ID", "-1"), kubernetes("JOB_COMPLETION_INDEX", nullptr);
+    const Status status = ShardFromEnvironment().status();
+    EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
+    EXPECT_EQ(status.message(), "SLURM_ARRAY_TASK_ID=-1: not a shard index");
+  }
+}
+
+// `solid sample` in process: the same report as RunSample on a sampler made by hand, or
+// the one layout exported.
+TEST(SampleCommand, EqualsRunSampleOrExportsOneLayout) {
+  TempDir dir;
+  SampleCommandOptions options;
+  options.source.params = {.preset = "random-placement", .resolution = "96x72"};
+  options.source.assets = testing::ProceduralAssetsDir();
+  options.sample.seed = 5;
+  options.sample.first = 3;
+  options.sample.layouts = 6;
+  options.sample.jobs = 2;
+  const auto report = SampleCommand(options);
+  ASSERT_OK(report.status());
+  ASSERT_TRUE(report->sample.has_value());
+  SampleOptions by_hand = options.sample;
+  by_hand.jobs = 1;
+  const auto expected = RunSample(*SmallSampler(), by_hand);
+  ASSERT_OK(expected.status());
+  nlohmann::json got = report->ToJson(), want = expected->ToJson();
+  for (const char* timing : {"seconds", "sample_ms_per_layout", "mask_ms_per_layout"}) {
+    got.erase(timing);
+    want.erase(timing);
+  }
+  EXPECT_EQ(got["params"], ParamsToJson(SmallSampler()->params()));
+  EXPECT_EQ(got["seed"], 5);
+  EXPECT_EQ(got["first"], 3);
+  for (const char* added : {"params", "seed", "first"}) got.erase(added);
+  EXPECT_EQ(got, want);
+
+  options.export_scene = 4;
+  EXPECT_EQ(SampleCommand(options).status().option(), "export_path");
+  options.export_path = dir.path() / "scene.glb";
+  const auto exported = SampleCommand(options);
+  ASSERT_OK(exported.status());
+  ASSERT_TRUE(exported->exported.has_value());
+  EXPECT_FALSE(exported->sample.has_value());
+  EXPECT_EQ(exported->exported->index, 4);
+  EXPECT_GT(exported->exported->objects, 0u);
+  EXPECT_GT(fs::file_size(options.export_path), 0u);
+  options.export_scene = -1;
+  EXPECT_EQ(SampleCommand(options).status().option(), "export_scene");
+}
+
+TEST(SampleCommand, WrongOptionsNameTheirField) {
+  const auto sampler = SmallSampler();
+  SampleOptions options;
+  options.layouts = -1;
+  EXPECT_EQ(RunSample(*sampler, options).status().option(), "layouts");
+  options.layouts = 1;
+  options.first = -1;
+  EXPECT_EQ(RunSample(*sampler, options).status().option(), "first");
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // --export-scene: a sampled layout as a glTF scene that viewers open and that holds
 // exactly what was sampled (object and camera transforms, meshes, the room).
-#include "solid/render/scene_export.h"
+#include "scene_export.h"
 
 #include <gtest/gtest.h>
 

@@ -17,7 +17,9 @@ struct AssetsDir {
     std::filesystem::remove_all(path);
     convert::ConvertOptions options;
     options.jobs = 2;
-    const auto report = convert::ConvertProcedural({16, 3, 7}, path, options);
+    options.out = path;
+    options.procedural = {16, 3, 7};
+    const auto report = convert::Convert(options);
     if (!report.ok() || report->failed != 0) std::abort();
   }
   ~AssetsDir() {

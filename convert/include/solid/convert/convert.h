@@ -41,7 +41,25 @@ struct ItemOutcome {
   double milliseconds = 0;
 };
 
+// What Convert reads. glTF and OBJ folders are to come as sources of their own.
+enum class Source {
+  kShapeNet,    // a ShapeNetCore v1 or v2 tree at `root`
+  kSceneNet,    // SceneNet rooms (*.obj below `root`)
+  kProcedural,  // built-in shapes and rooms (`procedural`), no input
+};
+
+struct ProceduralSet {
+  int models = 64;
+  int rooms = 8;
+  uint64_t seed = 1;
+  ProceduralShapeOptions shapes;  // part of each shape's identity: a new range reconverts
+};
+
 struct ConvertOptions {
+  Source source = Source::kProcedural;
+  std::filesystem::path root;  // the input tree (ShapeNet, SceneNet)
+  std::filesystem::path out;   // the assets directory written
+  ProceduralSet procedural;    // kProcedural
   int jobs = 0;                      // 0: all cores
   int64_t limit = -1;                // convert at most this many assets (after filtering); -1: all
   std::vector<std::string> synsets;  // ShapeNet: only these synset folders (empty: all)
@@ -69,7 +87,7 @@ struct TextureLibraryReport {
   int64_t files_up_to_date = 0;         // already identical in the output
   bool unknown_created = false;         // textures/unknown/ got the placeholder image
   // Rooms' material names whose derived folder is not among `categories` -> that folder
-  // (filled by ConvertSceneNet from the catalog rows of the rooms considered).
+  // (filled by Convert, for SceneNet, from the catalog rows of the rooms considered).
   std::map<std::string, std::string> unmatched;
 };
 
@@ -86,12 +104,11 @@ struct ConvertReport {
   int64_t not_started = 0;  // assets left for a rerun when cancelled
 };
 
-// Fatal errors (a root that is not a ShapeNet tree, an output that cannot be created)
-// are returned as a Status; per-asset failures are in the report and the catalog.
-Result<ConvertReport> ConvertShapeNet(const std::filesystem::path& root, const std::filesystem::path& out,
-                                      const ConvertOptions& options);
-Result<ConvertReport> ConvertSceneNet(const std::filesystem::path& root, const std::filesystem::path& out,
-                                      const ConvertOptions& options);
+// `solid convert` as one call: the assets of options.source into options.out. Fatal errors
+// (a root that is not a ShapeNet tree, an output that cannot be created) are returned as a
+// Status, a wrong field as OptionError naming it ("out", "root", "procedural.models",
+// "procedural.rooms"); per-asset failures are in the report and the catalog.
+Result<ConvertReport> Convert(const ConvertOptions& options);
 
 // The texture-library step of docs "input-formats" 4 (SceneNet output 3), on its own:
 // copies every regular file of each `library/<category>/` (no deeper) to
@@ -107,13 +124,5 @@ Result<ConvertReport> ConvertSceneNet(const std::filesystem::path& root, const s
 Result<TextureLibraryReport> CopySceneNetTextureLibrary(const std::filesystem::path& library,
                                                         const std::filesystem::path& textures);
 
-struct ProceduralSet {
-  int models = 64;
-  int rooms = 8;
-  uint64_t seed = 1;
-  ProceduralShapeOptions shapes;  // part of each shape's identity: a new range reconverts
-};
-Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const std::filesystem::path& out,
-                                        const ConvertOptions& options);
 
 }  // namespace solid::convert

@@ -140,6 +140,25 @@ double ScaleClassAreaScale(const LayoutParams& params, int width, int height);
 // "640x480", or "640x480 (scale_classes_at; rendered at 320x240)": what reports print.
 std::string ScaleClassDescription(const LayoutParams& params);
 
+// Where a command's params come from: a params file or a preset (exactly one), with the
+// render resolution and the scale-class resolution optionally overridden. Shared by
+// sample, render and optimize, so that the three read params alike.
+struct ParamsSource {
+  std::filesystem::path params;  // a params file
+  std::string preset;            // a preset name (PresetNames)
+  std::string resolution;        // "WIDTHxHEIGHT"; empty: the params'
+  std::string scale_classes_at;  // "WIDTHxHEIGHT"; empty: the params' render.scale_classes_at
+};
+
+// The params of `source`. OptionError "params" when neither or both of params and preset
+// are given, "resolution" or "scale_classes_at" when malformed; a params file's own errors
+// as LoadParamsFile, an unknown preset as LoadPreset.
+Result<LayoutParams> ResolveParams(const ParamsSource& source);
+
+// "WIDTHxHEIGHT", each side within the range the params schema allows for a resolution;
+// otherwise OptionError(field, ...).
+Result<std::pair<int, int>> ParseResolution(std::string_view field, std::string_view text);
+
 // Checks the semantic rules the schema cannot express (intervals ordered, bucket
 // probabilities summing to 1, a camera ring that fits the grid, ...). `source`
 // prefixes messages; each message names the knob.

@@ -18,6 +18,8 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -26,7 +28,9 @@
 #include "solid/formats/dataset.h"
 #include "solid/formats/progress.h"
 #include "solid/render/layout.h"
+#include "solid/render/params.h"
 #include "solid/render/query_views.h"
+#include "solid/render/sample.h"
 #include "solid/render/shade.h"
 
 namespace solid::render {
@@ -112,6 +116,46 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
 // renders its other shards first, then waits for the holder to publish (or to die, and
 // renders the shard itself). Every requested shard is present when it returns, unless
 // cancelled (report.cancelled; a rerun resumes).
+// OptionError "images", "shard_size", "query_shard_models" (out of range) or "shards" (not
+// shards of the dataset).
 Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options);
+
+// `solid render` as one call: the sampler opened (OpenSampler) and RenderDataset run.
+struct RenderCommandOptions {
+  SamplerSource source;
+  // As given, but for three fields RenderCommand derives: query_views.render_size from
+  // query_views.long_side (QueryRenderSize), query_views.samples_per_pixel from
+  // shading.samples_per_pixel (views are shaded like images), and texture_cache_bytes from
+  // source.library.cache_bytes (decoded textures are a second cache of the asset cache's
+  // size: the glb bytes count in the first).
+  RenderOptions render;
+};
+
+struct RenderCommandReport {
+  LayoutParams params;  // as resolved
+  RenderReport render;
+  nlohmann::json ToJson() const { return render.ToJson(); }
+};
+
+Result<RenderCommandReport> RenderCommand(const RenderCommandOptions& options);
+
+// The square render size of query views stored with long side `long_side`: 384 for 224
+// (solid-method 2.8: the object spans about 80% of the frame before the crop), the same
+// ratio for other sizes.
+int QueryRenderSize(int long_side);
+
+// "FIRST-LAST" (e.g. "0-15") as an inclusive shard range; OptionError `field` otherwise.
+Result<std::pair<int64_t, int64_t>> ParseShardRange(std::string_view field, std::string_view text);
+
+// The shard a scheduler gives this process as the index of its array task
+// (SLURM_ARRAY_TASK_ID, else JOB_COMPLETION_INDEX), or none when neither is set. A
+// function the caller asks, not something RenderDataset reads itself, so that a library
+// user's environment never changes what a call renders; kInvalidArgument naming the
+// variable when it is not an index.
+struct ScheduledShard {
+  int64_t shard = 0;
+  std::string variable;  // the environment variable it came from
+};
+Result<std::optional<ScheduledShard>> ShardFromEnvironment();
 
 }  // namespace solid::render

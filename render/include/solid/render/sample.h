@@ -4,6 +4,9 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,8 +15,10 @@
 #include "solid/formats/cancel.h"
 #include "solid/formats/metrics.h"
 #include "solid/formats/progress.h"
+#include "solid/render/assets.h"
 #include "solid/render/layout.h"
 #include "solid/render/mask_pass.h"
+#include "solid/render/params.h"
 #include "solid/render/shade.h"
 
 namespace solid::render {
@@ -75,5 +80,48 @@ struct SampleReport {
 };
 
 Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions& options);
+
+// What sample and render draw layouts from: the params, and the assets directories of
+// the models and of the rooms.
+struct SamplerSource {
+  ParamsSource params;
+  std::filesystem::path assets;  // the models (an assets directory of `solid convert`)
+  std::filesystem::path rooms;   // the rooms; empty: `assets`
+  AssetLibraryOptions library;
+};
+// The params resolved (ResolveParams, whose OptionErrors it returns), the library opened
+// and the sampler created.
+Result<std::unique_ptr<LayoutSampler>> OpenSampler(const SamplerSource& source);
+
+// `solid sample` as one call: samples options.sample's layouts, or, with export_scene,
+// writes that one layout as a glTF scene (scene_export) to export_path instead.
+struct SampleCommandOptions {
+  SamplerSource source;
+  SampleOptions sample;
+  std::optional<int64_t> export_scene;  // a layout index, >= 0
+  std::filesystem::path export_path;    // the .glb written with export_scene
+};
+
+// The exported layout of SampleCommandOptions::export_scene.
+struct ExportedScene {
+  int64_t index = 0;
+  size_t objects = 0, visible_objects = 0;
+  std::string room;  // the room's asset key
+  std::filesystem::path path;
+};
+
+struct SampleCommandReport {
+  LayoutParams params;  // as resolved
+  uint64_t seed = 1;
+  int64_t first = 0;
+  std::optional<SampleReport> sample;      // without export_scene
+  std::optional<ExportedScene> exported;  // with export_scene
+  // The sample report with the resolved params, the seed and the first index.
+  nlohmann::json ToJson() const;
+};
+
+// OptionError "export_scene" (negative) or "export_path" (empty with export_scene); the
+// errors of OpenSampler, RunSample (kCancelled when stopped), GenerateLayout and writing.
+Result<SampleCommandReport> SampleCommand(const SampleCommandOptions& options);
 
 }  // namespace solid::render

@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "solid/formats/asset.h"
-#include "solid/convert/obj.h"
+#include "obj.h"
 #include "solid/formats/status.h"
 
 namespace solid::convert {
