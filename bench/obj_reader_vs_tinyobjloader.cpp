@@ -12,7 +12,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "solid/convert/obj.h"
+#include "obj.h"
 
 namespace {
 
