@@ -20,6 +20,7 @@ struct ConvertFlags {
   bool retry_failed = false, all_objects = false, texture_library = false, verbose = false;
   gltf::DracoOptions draco;
   convert::ProceduralSet procedural;
+  std::string gltf_layout = "flat", obj_layout = "flat";  // convert gltf / convert obj
 };
 
 void AddCommonFlags(CLI::App* cmd, ConvertFlags* f) {
@@ -98,8 +99,8 @@ int Run(const ConvertFlags& f, const std::function<Result<convert::ConvertReport
 
 Command AddConvert(CLI::App& app) {
   auto f = std::make_shared<ConvertFlags>();
-  CLI::App* cmd = app.add_subcommand("convert", "Convert ShapeNet models, SceneNet rooms or procedural shapes and "
-                                                "rooms into Draco-compressed glTF assets with an SQLite catalog.");
+  CLI::App* cmd = app.add_subcommand("convert", "Convert ShapeNet models, SceneNet rooms, glTF or OBJ model folders, or "
+                                                "procedural shapes and rooms into Draco-compressed glTF assets with an SQLite catalog.");
   cmd->require_subcommand(1);
   CLI::App* shapenet = cmd->add_subcommand("shapenet", "ShapeNetCore v1 or v2 tree -> OUT/models/<synset>/<id>.glb");
   shapenet->add_option("ROOT", f->root, "ShapeNetCore root (holding taxonomy.json and synset folders)")->required();
@@ -132,7 +133,34 @@ Command AddConvert(CLI::App& app) {
                          "trash_bin, guitar, laptop")
       ->delimiter(',');
   AddCommonFlags(procedural, f.get());
-  return [f, shapenet, scenenet] {
+  // glTF corpora and plain OBJ folders.
+  CLI::App* gltf = cmd->add_subcommand("gltf", "Every .glb/.gltf below ROOT (Objaverse, ABO...) -> OUT/models/<key>.glb");
+  gltf->add_option("ROOT", f->root, "Folder of glTF models")->required();
+  gltf->add_option("OUT", f->out, "Assets directory")->required();
+  gltf->add_option("--layout", f->gltf_layout,
+                   "flat: key = path below ROOT without extension; objaverse: glbs/NNN-NNN/<uid>.glb -> key <uid>")
+      ->capture_default_str()->check(CLI::IsMember({"flat", "objaverse"}));
+  AddCommonFlags(gltf, f.get());
+  CLI::App* obj = cmd->add_subcommand("obj", "OBJ models below ROOT (Google Scanned Objects, YCB...) -> "
+                                             "OUT/models/<key>.glb");
+  obj->add_option("ROOT", f->root, "Folder of OBJ models")->required();
+  obj->add_option("OUT", f->out, "Assets directory")->required();
+  obj->add_option("--layout", f->obj_layout,
+                  "flat: every .obj, key = path without extension; gso: <name>/meshes/model.obj; "
+                  "ycb: <name>/google_16k/textured.obj")
+      ->capture_default_str()->check(CLI::IsMember({"flat", "gso", "ycb"}));
+  AddCommonFlags(obj, f.get());
+  return [f, shapenet, scenenet, gltf, obj] {
+    if (gltf->parsed()) {
+      const auto layout = f->gltf_layout == "objaverse" ? convert::GltfLayout::kObjaverse : convert::GltfLayout::kFlat;
+      return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertGltf(f->root, f->out, layout, o); });
+    }
+    if (obj->parsed()) {
+      const auto layout = f->obj_layout == "gso"   ? convert::ObjLayout::kGso
+                          : f->obj_layout == "ycb" ? convert::ObjLayout::kYcb
+                                                   : convert::ObjLayout::kFlat;
+      return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertObjFolder(f->root, f->out, layout, o); });
+    }
     if (shapenet->parsed()) {
       return Run(*f, [&](const convert::ConvertOptions& o) { return convert::ConvertShapeNet(f->root, f->out, o); });
     }

@@ -107,6 +107,26 @@ Result<ConvertReport> ConvertSceneNet(const std::filesystem::path& root, const s
 Result<TextureLibraryReport> CopySceneNetTextureLibrary(const std::filesystem::path& library,
                                                         const std::filesystem::path& textures);
 
+// glTF 2.0 corpora (`solid convert gltf`): every .glb/.gltf below root, read through
+// tinygltf (docs/limits.md), the default scene flattened into one node with one primitive
+// per material, then normalised as ShapeNet v2 models are; the catalog row's extras keep
+// "source_extent_m" (the bounding box in metres before normalisation). kFlat: key = path
+// below root without extension; kObjaverse: glbs/NNN-NNN/<uid>.glb gives key <uid>
+// (other files are not considered). Output OUT/models/<key>.glb, source "gltf". Failure
+// codes: those of convert/gltf_reader.h, plus unsafe_name and duplicate_key.
+enum class GltfLayout { kFlat, kObjaverse };
+Result<ConvertReport> ConvertGltf(const std::filesystem::path& root, const std::filesystem::path& out,
+                                  GltfLayout layout, const ConvertOptions& options);
+
+// Folders of plain OBJ models (`solid convert obj`), through ShapeNet's OBJ/MTL reader and
+// cleaning and with its failure codes, normalised as ShapeNet v2. kFlat: every .obj below
+// root, key = path without extension, textures confined to the OBJ's folder; kGso:
+// <name>/meshes/model.obj; kYcb: <name>/google_16k/textured.obj (key <name>, textures
+// confined to <name>/, extent in metres). Output OUT/models/<key>.glb, source "obj".
+enum class ObjLayout { kFlat, kGso, kYcb };
+Result<ConvertReport> ConvertObjFolder(const std::filesystem::path& root, const std::filesystem::path& out,
+                                       ObjLayout layout, const ConvertOptions& options);
+
 struct ProceduralSet {
   int models = 64;
   int rooms = 8;
