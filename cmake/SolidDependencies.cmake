@@ -16,6 +16,7 @@ if(NOT TARGET PkgConfig::XXHASH)
 endif()
 find_package(Threads REQUIRED)
 find_package(draco 1.5 CONFIG REQUIRED)
+find_package(meshoptimizer 0.18 CONFIG REQUIRED)
 find_package(TinyGLTF 2.7 CONFIG REQUIRED)
 # solid::render
 find_package(embree 3.13 CONFIG REQUIRED)

@@ -941,6 +941,7 @@ Result<ConvertReport> ConvertGltf(const fs::path& root, const fs::path& out, Glt
     job.input_root = root;
     job.inputs = {file};
     for (const fs::path& p : GltfExternalInputs(file)) job.inputs.push_back(p);
+    std::sort(job.inputs.begin(), job.inputs.end());
     const std::string key = job.key;
     job.convert = [file, key] { return ConvertGltfModel(file, key); };
     AddModelJob(&jobs, &keys, std::move(job), file);

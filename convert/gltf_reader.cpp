@@ -13,6 +13,7 @@
 
 #include <draco/compression/decode.h>
 #include <draco/core/decoder_buffer.h>
+#include <meshoptimizer.h>
 
 #include "solid/formats/files.h"
 
@@ -56,9 +57,15 @@ uint32_t JsonDepth(std::string_view text) {
   return deepest;
 }
 
+// EXT_meshopt_compression's fallback buffers have no URI (they hold nothing until the
+// compressed views are decoded into them); they are renamed to this so that tinygltf asks
+// ReadWholeFileCb for them, which hands out zeroed memory of the declared size.
+constexpr std::string_view kFallbackUri = "solid-meshopt-fallback-";
+
 struct FsContext {
   fs::path base_dir, confine_root;
   uint64_t max_bytes = 0;
+  std::map<std::string, uint64_t, std::less<>> fallback_bytes;  // sentinel URI -> byteLength
   std::string rejected;  // why the last refused path was refused
   std::string missing;
 };
@@ -75,6 +82,10 @@ bool ReadWholeFileCb(std::vector<unsigned char>* out, std::string* err, const st
   const std::string prefix = ctx->base_dir.string() + "/";
   std::string_view relative(path);
   if (relative.starts_with(prefix)) relative.remove_prefix(prefix.size());
+  if (auto it = ctx->fallback_bytes.find(relative); it != ctx->fallback_bytes.end()) {
+    out->assign(it->second, 0);
+    return true;
+  }
   Result<fs::path> resolved = files::ResolveInside(ctx->confine_root, (ctx->base_dir.lexically_relative(
                                                                           ctx->confine_root) / relative).string());
   if (relative.find("://") != std::string_view::npos || !resolved.ok()) {
@@ -317,7 +328,7 @@ struct RawPrimitive {
 
 const std::set<std::string>& DecodedExtensions() {
   static const std::set<std::string> kDecoded = {"KHR_draco_mesh_compression", "KHR_mesh_quantization",
-                                                 "KHR_texture_transform", "KHR_materials_emissive_strength"};
+                                                 "KHR_texture_transform", "EXT_meshopt_compression"};
   return kDecoded;
 }
 
@@ -391,6 +402,125 @@ RawPrimitive DecodeDraco(Reader& reader, const tinygltf::Primitive& prim, const 
   return raw;
 }
 
+// What tinygltf (built without its own Draco and meshopt support) would refuse, rewritten
+// before it parses: every EXT_meshopt_compression fallback buffer without a URI gets the
+// sentinel URI, and KHR_draco_mesh_compression primitives lose their `indices` (an
+// accessor without a bufferView, which tinygltf rejects; the Draco stream holds the
+// triangles). Repacks the file (GLB: a new JSON chunk before the original binary chunk).
+// Indices of every array are kept, so JSON pointers in messages still name the input.
+std::vector<uint8_t> RewriteForTinygltf(std::span<const uint8_t> bytes, bool binary, std::string_view json_text,
+                                        const std::string& name, const GltfReadLimits& limits, FsContext* ctx) {
+  json j = json::parse(json_text, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object()) return {bytes.begin(), bytes.end()};
+  if (j.contains("meshes") && j["meshes"].is_array()) {
+    for (json& mesh : j["meshes"]) {
+      if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+      for (json& prim : mesh["primitives"]) {
+        if (prim.is_object() && prim.contains("extensions") && prim["extensions"].is_object() &&
+            prim["extensions"].contains("KHR_draco_mesh_compression")) {
+          prim.erase("indices");
+        }
+      }
+    }
+  }
+  uint64_t total = 0;
+  for (size_t i = 0; j.contains("buffers") && j["buffers"].is_array() && i < j["buffers"].size(); ++i) {
+    json& b = j["buffers"][i];
+    if (!b.is_object() || b.contains("uri") || !b.contains("extensions") || !b["extensions"].is_object()) continue;
+    const json& ext = b["extensions"].value("EXT_meshopt_compression", json());
+    if (!ext.is_object() || !ext.value("fallback", false) || !b.contains("byteLength") ||
+        !b["byteLength"].is_number_unsigned()) {
+      continue;
+    }
+    total += b["byteLength"].get<uint64_t>();
+    if (total > limits.max_decoded_bytes) {
+      Fail("limit_exceeded", fmt::format("{}: /buffers/{}: meshopt fallback buffers past {} bytes in all", name, i,
+                                         limits.max_decoded_bytes));
+    }
+    const std::string uri = fmt::format("{}{}", kFallbackUri, i);
+    ctx->fallback_bytes[uri] = b["byteLength"].get<uint64_t>();
+    b["uri"] = uri;
+  }
+  std::string text = j.dump();
+  if (!binary) return {text.begin(), text.end()};
+  while (text.size() % 4 != 0) text.push_back(' ');
+  uint32_t old_chunk = 0;
+  std::memcpy(&old_chunk, bytes.data() + 12, 4);
+  const size_t rest = 20 + size_t{old_chunk};
+  std::vector<uint8_t> out(bytes.begin(), bytes.begin() + 12);
+  const uint32_t chunk = static_cast<uint32_t>(text.size()), type = 0x4E4F534Au;
+  out.insert(out.end(), reinterpret_cast<const uint8_t*>(&chunk), reinterpret_cast<const uint8_t*>(&chunk) + 4);
+  out.insert(out.end(), reinterpret_cast<const uint8_t*>(&type), reinterpret_cast<const uint8_t*>(&type) + 4);
+  out.insert(out.end(), text.begin(), text.end());
+  if (rest < bytes.size()) out.insert(out.end(), bytes.begin() + static_cast<std::ptrdiff_t>(rest), bytes.end());
+  const uint32_t length = static_cast<uint32_t>(std::min<size_t>(out.size(), UINT32_MAX));
+  std::memcpy(out.data() + 8, &length, 4);
+  return out;
+}
+
+// Decodes every EXT_meshopt_compression bufferView into the bytes its fallback names.
+void DecodeMeshopt(tinygltf::Model* model, const std::string& name) {
+  for (size_t v = 0; v < model->bufferViews.size(); ++v) {
+    tinygltf::BufferView& bv = model->bufferViews[v];
+    auto it = bv.extensions.find("EXT_meshopt_compression");
+    if (it == bv.extensions.end()) continue;
+    const std::string at = fmt::format("{}: /bufferViews/{}/extensions/EXT_meshopt_compression", name, v);
+    const tinygltf::Value& x = it->second;
+    auto integer = [&](const char* key, bool required) -> uint64_t {
+      if (!x.IsObject() || !x.Has(key)) {
+        if (required) Fail("parse_error", fmt::format("{}/{}: missing", at, key));
+        return 0;
+      }
+      const tinygltf::Value& n = x.Get(key);
+      if (!n.IsNumber() || n.GetNumberAsDouble() < 0 || n.GetNumberAsDouble() > 9e15) {
+        Fail("parse_error", fmt::format("{}/{}: not a non-negative integer", at, key));
+      }
+      return static_cast<uint64_t>(n.GetNumberAsDouble());
+    };
+    const uint64_t buffer = integer("buffer", true), offset = integer("byteOffset", false),
+                   length = integer("byteLength", true), stride = integer("byteStride", true),
+                   count = integer("count", true);
+    const std::string mode = x.Has("mode") && x.Get("mode").IsString() ? x.Get("mode").Get<std::string>() : "";
+    const std::string filter =
+        x.Has("filter") && x.Get("filter").IsString() ? x.Get("filter").Get<std::string>() : "NONE";
+    if (buffer >= model->buffers.size()) Fail("corrupt", at + "/buffer: does not exist");
+    const std::vector<unsigned char>& src = model->buffers[buffer].data;
+    if (offset > src.size() || length > src.size() - offset) Fail("corrupt", at + ": source bytes outside the buffer");
+    if (bv.buffer < 0 || static_cast<size_t>(bv.buffer) >= model->buffers.size()) Fail("corrupt", at + ": no target buffer");
+    std::vector<unsigned char>& dst = model->buffers[static_cast<size_t>(bv.buffer)].data;
+    if (stride == 0 || stride > 256 || count > (uint64_t{1} << 32) || count * stride > bv.byteLength ||
+        bv.byteOffset > dst.size() || bv.byteLength > dst.size() - bv.byteOffset) {
+      Fail("corrupt", fmt::format("{}: {} x {} bytes do not fit the bufferView", at, count, stride));
+    }
+    unsigned char* target = dst.data() + bv.byteOffset;
+    const unsigned char* data = src.data() + offset;
+    int rc = -1;
+    if (mode == "ATTRIBUTES") {
+      if (stride % 4 != 0) Fail("corrupt", at + "/byteStride: not a multiple of 4");
+      rc = meshopt_decodeVertexBuffer(target, count, stride, data, length);
+    } else if (mode == "TRIANGLES" || mode == "INDICES") {
+      if (stride != 2 && stride != 4) Fail("corrupt", at + "/byteStride: index size not 2 or 4");
+      if (mode == "TRIANGLES" && count % 3 != 0) Fail("corrupt", at + "/count: not a multiple of 3");
+      rc = mode == "TRIANGLES" ? meshopt_decodeIndexBuffer(target, count, stride, data, length)
+                               : meshopt_decodeIndexSequence(target, count, stride, data, length);
+    } else {
+      Fail("corrupt", fmt::format("{}/mode: '{}' is not ATTRIBUTES, TRIANGLES or INDICES", at, mode));
+    }
+    if (rc != 0) Fail("corrupt", fmt::format("{}: meshopt stream does not decode ({})", at, rc));
+    if (filter == "OCTAHEDRAL") {
+      if (stride != 4 && stride != 8) Fail("corrupt", at + "/filter: OCTAHEDRAL needs a stride of 4 or 8");
+      meshopt_decodeFilterOct(target, count, stride);
+    } else if (filter == "QUATERNION") {
+      if (stride != 8) Fail("corrupt", at + "/filter: QUATERNION needs a stride of 8");
+      meshopt_decodeFilterQuat(target, count, stride);
+    } else if (filter == "EXPONENTIAL") {
+      meshopt_decodeFilterExp(target, count, stride);
+    } else if (filter != "NONE") {
+      Fail("corrupt", fmt::format("{}/filter: unknown filter '{}'", at, filter));
+    }
+  }
+}
+
 struct Output {
   gltf::Primitive prim;
   bool has_normals = true;
@@ -460,8 +590,16 @@ GltfReadResult ReadGltfModel(std::span<const uint8_t> bytes, const fs::path& pat
       Fail("limit_exceeded", fmt::format("{}: JSON nested deeper than {}", name, limits.max_json_depth));
     }
 
-    FsContext fs_ctx{path.parent_path(), confine_root, limits.max_file_bytes, {}, {}};
+    FsContext fs_ctx{path.parent_path(), confine_root, limits.max_file_bytes, {}, {}, {}};
     if (fs_ctx.base_dir.empty()) fs_ctx.base_dir = ".";
+    std::vector<uint8_t> repacked;
+    if (json_text.find("EXT_meshopt_compression") != std::string_view::npos ||
+        json_text.find("KHR_draco_mesh_compression") != std::string_view::npos) {
+      repacked = RewriteForTinygltf(bytes, binary, json_text, name, limits, &fs_ctx);
+      bytes = repacked;
+      // LoadASCIIFromString reads json_text; a GLB is read from bytes.
+      if (!binary) json_text = std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    }
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks({&FileExistsCb, &ExpandCb, &ReadWholeFileCb, &WriteWholeFileCb, &fs_ctx});
     loader.SetImageLoader(&KeepImageBytes, nullptr);
@@ -483,6 +621,7 @@ GltfReadResult ReadGltfModel(std::span<const uint8_t> bytes, const fs::path& pat
         Fail("unsupported_extension", fmt::format("{}: /extensionsRequired: {} is not supported", name, e));
       }
     }
+    DecodeMeshopt(&model, name);
     GltfModel& out = result.model;
     for (const std::string& e : model.extensionsUsed) {
       if (!DecodedExtensions().count(e) &&

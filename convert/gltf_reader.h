@@ -28,6 +28,7 @@ struct GltfReadLimits {
   uint64_t max_triangles = 50'000'000;
   uint32_t max_image_side = 16384;
   uint64_t max_image_bytes = uint64_t{64} << 20;
+  uint64_t max_decoded_bytes = uint64_t{1} << 30;  // EXT_meshopt_compression fallback buffers, in all
 };
 
 // A model that cannot be converted: the catalog's error_code and a message naming the
