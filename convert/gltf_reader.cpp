@@ -16,6 +16,7 @@
 #include <meshoptimizer.h>
 
 #include "solid/formats/files.h"
+#include "solid/formats/image_codec.h"
 
 // The one translation unit holding tinygltf's implementation. Images are kept encoded
 // (the asset embeds PNG/JPEG as is), so neither stb_image nor its writer is compiled;
@@ -659,9 +660,12 @@ GltfReadResult ReadGltfModel(std::span<const uint8_t> bytes, const fs::path& pat
       }
       std::optional<std::pair<uint32_t, uint32_t>> size = ImageSize(b);
       if (!size || size->first == 0 || size->second == 0) Fail("corrupt", image_at + ": no readable image header");
-      if (size->first > limits.max_image_side || size->second > limits.max_image_side || b.size() > limits.max_image_bytes) {
-        Fail("limit_exceeded", fmt::format("{}: {}x{} pixels, {} bytes: past the image limits", image_at, size->first,
-                                           size->second, b.size()));
+      // As for MTL textures: one the renderer would refuse is dropped, the material keeps its colour.
+      if (!kTextureLimits.Admit(size->first, size->second) || b.size() > limits.max_image_bytes) {
+        out.warnings.push_back({"texture_too_large", fmt::format("{}: {}x{} pixels, {} bytes: over the texture limits; "
+                                                                 "texture dropped", image_at, size->first, size->second,
+                                                                 b.size())});
+        return slot;
       }
       gltf::Texture tex;
       tex.name = !image.uri.empty() && image.uri.rfind("data:", 0) != 0 ? image.uri

@@ -26,8 +26,7 @@ struct GltfReadLimits {
   uint64_t max_primitives = 100'000;           // primitive instances in all
   uint64_t max_vertices = 50'000'000;          // baked, in all
   uint64_t max_triangles = 50'000'000;
-  uint32_t max_image_side = 16384;
-  uint64_t max_image_bytes = uint64_t{64} << 20;
+  uint64_t max_image_bytes = uint64_t{64} << 20;  // and kTextureLimits' sides and pixels
   uint64_t max_decoded_bytes = uint64_t{1} << 30;  // EXT_meshopt_compression fallback buffers, in all
 };
 
