@@ -139,9 +139,20 @@ std::optional<std::pair<uint32_t, uint32_t>> ImageSize(std::span<const uint8_t> 
   return std::nullopt;
 }
 
-// Images stay encoded: the asset embeds PNG and JPEG bytes as they are.
-bool KeepImageBytes(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
-                    const unsigned char* bytes, int size, void*) {
+// Images stay encoded: the asset embeds PNG and JPEG bytes as they are. tinygltf 2.7 hands
+// over an image's bufferView without checking it against its buffer, so that is done here
+// (`user` is the model being loaded: its buffers and views are parsed before its images).
+bool KeepImageBytes(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
+                    const unsigned char* bytes, int size, void* user) {
+  const auto* model = static_cast<const tinygltf::Model*>(user);
+  if (image->bufferView >= 0) {
+    const tinygltf::BufferView& bv = model->bufferViews[static_cast<size_t>(image->bufferView)];
+    const size_t available = model->buffers[static_cast<size_t>(bv.buffer)].data.size();
+    if (bv.byteOffset > available || bv.byteLength > available - bv.byteOffset || bv.byteLength > INT32_MAX) {
+      if (err) *err += fmt::format("/images/{}: bufferView {} lies outside its buffer", index, image->bufferView);
+      return false;
+    }
+  }
   image->image.assign(bytes, bytes + std::max(size, 0));
   image->as_is = true;
   return true;
@@ -603,9 +614,9 @@ GltfReadResult ReadGltfModel(std::span<const uint8_t> bytes, const fs::path& pat
     }
     tinygltf::TinyGLTF loader;
     loader.SetFsCallbacks({&FileExistsCb, &ExpandCb, &ReadWholeFileCb, &WriteWholeFileCb, &fs_ctx});
-    loader.SetImageLoader(&KeepImageBytes, nullptr);
-    loader.SetStoreOriginalJSONForExtrasAndExtensions(false);
     tinygltf::Model model;
+    loader.SetImageLoader(&KeepImageBytes, &model);
+    loader.SetStoreOriginalJSONForExtrasAndExtensions(false);
     std::string err, warn;
     const bool loaded = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
                                                              static_cast<unsigned>(bytes.size()), fs_ctx.base_dir.string())

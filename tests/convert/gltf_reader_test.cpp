@@ -303,6 +303,15 @@ TEST(GltfReader, BrokenFilesFailWithTheirCodeAndWhere) {
     b.Node({{"name", "empty"}});
     EXPECT_TRUE(code_of(b).starts_with("empty_geometry | ")) << code_of(b);
   }
+  {  // an image's bufferView past its buffer (tinygltf 2.7 does not check it; gltf_fuzz found it)
+    GltfBuilder b;
+    b.Node({{"mesh", b.Mesh({{"attributes", {{"POSITION", b.Positions(kTriangle)}}}})}});
+    b.doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 16}, {"byteLength", 4096}});
+    b.doc["images"] = json::array({{{"bufferView", 1}, {"mimeType", "image/png"}}});
+    const std::string c = code_of(b);
+    EXPECT_TRUE(c.starts_with("parse_error | ")) << c;
+    EXPECT_NE(c.find("/images/0: bufferView 1 lies outside its buffer"), std::string::npos) << c;
+  }
   GltfReadResult garbage = Read({'g', 'l', 'T', 'F', 2, 0, 0, 0, 99, 0, 0, 0}, dir.path() / "g.glb");
   EXPECT_FALSE(garbage.ok);
   EXPECT_EQ(garbage.failure.code, "parse_error");
