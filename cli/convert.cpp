@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 
 #include <iostream>
+#include <map>
 
 #include "commands.h"
 #include "exit_codes.h"
@@ -91,8 +92,8 @@ int Run(ConvertFlags& f) {
 
 Command AddConvert(CLI::App& app) {
   auto f = std::make_shared<ConvertFlags>();
-  CLI::App* cmd = app.add_subcommand("convert", "Convert ShapeNet models, SceneNet rooms or procedural shapes and "
-                                                "rooms into Draco-compressed glTF assets with an SQLite catalog.");
+  CLI::App* cmd = app.add_subcommand("convert", "Convert ShapeNet models, SceneNet rooms, glTF or OBJ model folders, or "
+                                                "procedural shapes and rooms into Draco-compressed glTF assets with an SQLite catalog.");
   cmd->require_subcommand(1);
   CLI::App* shapenet = cmd->add_subcommand("shapenet", "ShapeNetCore v1 or v2 tree -> OUT/models/<synset>/<id>.glb");
   shapenet->add_option("ROOT", f->options.root, "ShapeNetCore root (holding taxonomy.json and synset folders)")->required();
@@ -125,9 +126,32 @@ Command AddConvert(CLI::App& app) {
                          "trash_bin, guitar, laptop")
       ->delimiter(',');
   AddCommonFlags(procedural, f.get());
-  return [f, shapenet, scenenet] {
+  const std::map<std::string, convert::GltfLayout> gltf_layouts = {{"flat", convert::GltfLayout::kFlat},
+                                                                    {"objaverse", convert::GltfLayout::kObjaverse}};
+  CLI::App* gltf = cmd->add_subcommand("gltf", "Every .glb/.gltf below ROOT (Objaverse, ABO...) -> OUT/models/<key>.glb");
+  gltf->add_option("ROOT", f->options.root, "Folder of glTF models")->required();
+  gltf->add_option("OUT", f->options.out, "Assets directory")->required();
+  gltf->add_option("--layout", f->options.gltf_layout,
+                   "flat: key = path below ROOT without extension; objaverse: glbs/NNN-NNN/<uid>.glb -> key <uid> "
+                   "(default: flat)")
+      ->transform(CLI::CheckedTransformer(gltf_layouts));
+  AddCommonFlags(gltf, f.get());
+  const std::map<std::string, convert::ObjLayout> obj_layouts = {
+      {"flat", convert::ObjLayout::kFlat}, {"gso", convert::ObjLayout::kGso}, {"ycb", convert::ObjLayout::kYcb}};
+  CLI::App* obj = cmd->add_subcommand("obj", "OBJ models below ROOT (Google Scanned Objects, YCB...) -> "
+                                             "OUT/models/<key>.glb");
+  obj->add_option("ROOT", f->options.root, "Folder of OBJ models")->required();
+  obj->add_option("OUT", f->options.out, "Assets directory")->required();
+  obj->add_option("--layout", f->options.obj_layout,
+                  "flat: every .obj, key = path without extension; gso: <name>/meshes/model.obj; "
+                  "ycb: <name>/google_16k/textured.obj (default: flat)")
+      ->transform(CLI::CheckedTransformer(obj_layouts));
+  AddCommonFlags(obj, f.get());
+  return [f, shapenet, scenenet, gltf, obj] {
     f->options.source = shapenet->parsed()   ? convert::Source::kShapeNet
                         : scenenet->parsed() ? convert::Source::kSceneNet
+                        : gltf->parsed()     ? convert::Source::kGltf
+                        : obj->parsed()      ? convert::Source::kObj
                                              : convert::Source::kProcedural;
     if (f->options.source == convert::Source::kProcedural) {
       Result<std::vector<convert::ShapeFamily>> families = convert::ParseShapeFamilies(f->families);

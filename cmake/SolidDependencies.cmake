@@ -16,9 +16,11 @@ if(NOT TARGET PkgConfig::XXHASH)
 endif()
 find_package(Threads REQUIRED)
 find_package(draco 1.5 CONFIG REQUIRED)
-# For `solid convert gltf` (third-party glTF/GLB input, the gltf branch), which links it into
-# solid::convert; until then only bench/glb_vs_tinygltf links it. Our own Draco GLBs are read
-# and written by formats/glb.cpp, not by tinygltf (docs/dependencies.md says why).
+# solid::convert: meshoptimizer decodes EXT_meshopt_compression of glTF input.
+find_package(meshoptimizer 0.18 CONFIG REQUIRED)
+# solid::convert reads third-party glTF/GLB input with tinygltf (convert/gltf_reader.cpp). Our
+# own Draco GLBs are read and written by formats/glb.cpp, not by tinygltf (docs/dependencies.md
+# says why).
 find_package(TinyGLTF 2.7 CONFIG REQUIRED)
 # solid::render
 find_package(embree 3.13 CONFIG REQUIRED)

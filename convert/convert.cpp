@@ -17,10 +17,12 @@
 #include "obj_to_asset.h"
 #include "scenenet.h"
 #include "solid/convert/procedural.h"
+#include "gltf_reader.h"
 #include "solid/formats/catalog.h"
 #include "solid/formats/checksum.h"
 #include "solid/formats/files.h"
 #include "solid/formats/image_codec.h"
+#include "solid/formats/json_schema.h"
 #include "solid/formats/workers.h"
 
 namespace solid::convert {
@@ -808,6 +810,194 @@ Result<ConvertReport> ConvertProcedural(const ProceduralSet& set, const fs::path
   return RunJobs(std::move(jobs), out, options);
 }
 
+// ---------------------------------------------------------------------------------------
+// glTF/GLB corpora and folders of plain OBJ models (Objaverse, ABO, GSO, YCB): discovery
+// by layout, then one model per job through RunJobs, normalised as ShapeNet v2 models are.
+
+constexpr std::string_view kNormalisedFrame =
+    "+Y up; centred at the vertex mean, scaled to a bounding-box diagonal of 1 (as ShapeNetCore.v2)";
+
+// Every path component safe as a file name of the output tree.
+bool SafeKey(const std::string& key) {
+  if (key.empty()) return false;
+  for (const auto& part : fs::path(key)) {
+    if (!SafePathComponent(part.string())) return false;
+  }
+  return true;
+}
+
+// The external files a .gltf names (buffers and images that are not data URIs and stay in
+// its folder): inputs of the job, so that a changed .bin reconverts. Unreadable JSON adds
+// nothing here; the conversion reports it.
+std::vector<fs::path> GltfExternalInputs(const fs::path& gltf) {
+  std::vector<fs::path> out;
+  if (gltf.extension() != ".gltf") return out;
+  Result<std::vector<uint8_t>> bytes = files::ReadFile(gltf, kMaxInputFileBytes);
+  if (!bytes.ok()) return out;
+  Result<json> j = solid::json::ParseJson(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()),
+                                   gltf.string());
+  if (!j.ok() || !j->is_object()) return out;
+  std::error_code ec;
+  for (const char* member : {"buffers", "images"}) {
+    if (!j->contains(member) || !(*j)[member].is_array()) continue;
+    for (const json& e : (*j)[member]) {
+      if (!e.is_object() || !e.contains("uri") || !e["uri"].is_string()) continue;
+      const std::string uri = e["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) continue;
+      Result<fs::path> p = files::ResolveInside(gltf.parent_path(), uri);
+      if (p.ok() && fs::is_regular_file(*p, ec)) out.push_back(*p);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+std::variant<Converted, AssetFailure> ConvertGltfModel(const fs::path& file, const std::string& key) {
+  Result<std::vector<uint8_t>> bytes = files::ReadFile(file, kMaxInputFileBytes);
+  if (!bytes.ok()) return FailureFromStatus(bytes.status(), "read_error");
+  GltfReadResult read = ReadGltfModel(*bytes, file, file.parent_path(), key);
+  if (!read.ok) return AssetFailure{read.failure.code, read.failure.message};
+  Converted c;
+  c.asset = std::move(read.model.asset);
+  c.warnings = std::move(read.model.warnings);
+  c.counts = std::move(read.model.counts);
+  const std::array<double, 3> extent = NormalizeAsShapeNetV2(&c.asset);
+  c.asset.extras["source_frame"] = fmt::format("gltf: metres, {}", kNormalisedFrame);
+  c.asset.extras["source_extent_m"] = extent;
+  c.extras = {{"source_extent_m", extent}};
+  return c;
+}
+
+std::variant<Converted, AssetFailure> ConvertObjModel(const fs::path& obj_path, const fs::path& confine_root,
+                                                      const std::string& key, bool metres) {
+  std::error_code ec;
+  if (!fs::is_regular_file(obj_path, ec)) {
+    return AssetFailure{"missing_obj", fmt::format("{}: not found", obj_path.string())};
+  }
+  Converted c;
+  std::variant<LoadedObj, AssetFailure> loaded_or = LoadObj(obj_path, &c.warnings);
+  if (auto* failure = std::get_if<AssetFailure>(&loaded_or)) return *failure;
+  LoadedObj& loaded = std::get<LoadedObj>(loaded_or);
+  loaded.options.grouping = NodeGrouping::kSingleNode;
+  loaded.options.node_name = key;
+  loaded.options.textures = TextureMode::kEmbed;
+  loaded.options.confine_root = confine_root;
+  Result<ObjAsset> built = BuildAssetFromObj(loaded.obj, loaded.mtl ? &*loaded.mtl : nullptr, loaded.options);
+  if (!built.ok()) return FailureFromStatus(built.status(), "empty_geometry");
+  c.asset = std::move(built->asset);
+  c.warnings.insert(c.warnings.end(), built->warnings.begin(), built->warnings.end());
+  c.counts = CountsJson(built->counts, loaded.obj);
+  const std::array<double, 3> extent = NormalizeAsShapeNetV2(&c.asset);
+  // GSO and YCB scans are in metres; a flat folder's OBJ units are unknown.
+  const char* extent_key = metres ? "source_extent_m" : "source_extent";
+  c.asset.extras["source_frame"] = fmt::format("obj{}, {}", metres ? ": metres" : "", kNormalisedFrame);
+  c.asset.extras[extent_key] = extent;
+  c.extras = {{extent_key, extent}};
+  return c;
+}
+
+// Jobs in key order; a key met twice is a failed row for every file after the first.
+void AddModelJob(std::vector<Job>* jobs, std::set<std::string>* keys, Job job, const fs::path& shown) {
+  job.kind = "model";
+  job.output = fs::path("models") / (job.key + ".glb");
+  if (!SafeKey(job.key)) {
+    job.discovery_failure = AssetFailure{"unsafe_name", fmt::format("{}: '{}' is not a safe key", shown.string(), job.key)};
+  } else if (!keys->insert(job.key).second) {
+    job.discovery_failure = AssetFailure{"duplicate_key", fmt::format("{}: key '{}' is taken by an earlier file",
+                                                                      shown.string(), job.key)};
+    job.key += "#" + fs::path(shown).filename().string();
+  }
+  jobs->push_back(std::move(job));
+}
+
+std::vector<fs::path> FilesUnder(const fs::path& root, const std::function<bool(const fs::path&)>& want) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(root, ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->is_regular_file(ec) && !files::IsTempPath(it->path()) && want(it->path())) out.push_back(it->path());
+  }
+  std::sort(out.begin(), out.end(), [](const fs::path& a, const fs::path& b) { return a.native() < b.native(); });
+  return out;
+}
+
+Result<ConvertReport> ConvertGltf(const fs::path& root, const fs::path& out, GltfLayout layout,
+                                  const ConvertOptions& options) {
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
+  static const std::regex kObjaverse("^glbs/[0-9]{3}-[0-9]{3}/([^/]+)\\.glb$");
+  std::vector<Job> jobs;
+  std::set<std::string> keys;
+  for (const fs::path& file : FilesUnder(root, [](const fs::path& p) {
+         return p.extension() == ".glb" || p.extension() == ".gltf";
+       })) {
+    const std::string relative = fs::relative(file, root).generic_string();
+    Job job;
+    if (layout == GltfLayout::kObjaverse) {
+      std::smatch m;
+      if (!std::regex_match(relative, m, kObjaverse)) continue;
+      job.key = m[1].str();
+    } else {
+      job.key = fs::path(relative).replace_extension().generic_string();
+    }
+    job.source = "gltf";
+    job.input_root = root;
+    job.inputs = {file};
+    for (const fs::path& p : GltfExternalInputs(file)) job.inputs.push_back(p);
+    std::sort(job.inputs.begin(), job.inputs.end());
+    const std::string key = job.key;
+    job.convert = [file, key] { return ConvertGltfModel(file, key); };
+    AddModelJob(&jobs, &keys, std::move(job), file);
+  }
+  if (jobs.empty()) {
+    return NotFoundError(fmt::format("{}: no {} found", root.string(),
+                                     layout == GltfLayout::kObjaverse ? "glbs/NNN-NNN/<uid>.glb" : ".glb or .gltf files"));
+  }
+  return RunJobs(std::move(jobs), out, options);
+}
+
+Result<ConvertReport> ConvertObjFolder(const fs::path& root, const fs::path& out, ObjLayout layout,
+                                       const ConvertOptions& options) {
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
+  std::vector<Job> jobs;
+  std::set<std::string> keys;
+  if (layout == ObjLayout::kFlat) {
+    for (const fs::path& obj : FilesUnder(root, [](const fs::path& p) { return p.extension() == ".obj"; })) {
+      Job job;
+      job.key = fs::relative(obj, root).replace_extension().generic_string();
+      job.source = "obj";
+      job.input_root = root;
+      job.inputs = {obj};
+      if (fs::path mtl = fs::path(obj).replace_extension(".mtl"); fs::is_regular_file(mtl, ec)) job.inputs.push_back(mtl);
+      const std::string key = job.key;
+      const fs::path dir = obj.parent_path();
+      job.convert = [obj, dir, key] { return ConvertObjModel(obj, dir, key, /*metres=*/false); };
+      AddModelJob(&jobs, &keys, std::move(job), obj);
+    }
+  } else {
+    // One folder per model: GSO <name>/meshes/model.obj (texture in <name>/materials/),
+    // YCB <name>/google_16k/textured.obj. A folder without its OBJ is a missing_obj row.
+    const fs::path mesh = layout == ObjLayout::kGso ? fs::path("meshes") / "model.obj"
+                                                    : fs::path("google_16k") / "textured.obj";
+    for (const fs::path& model_dir : SortedEntries(root, true)) {
+      const std::string name = model_dir.filename().string();
+      if (name.empty() || name[0] == '.') continue;
+      Job job;
+      job.key = name;
+      job.source = "obj";
+      job.input_root = root;
+      job.inputs = ModelInputFiles(model_dir);
+      const fs::path obj = model_dir / mesh;
+      const std::string key = job.key;
+      job.convert = [obj, model_dir, key] { return ConvertObjModel(obj, model_dir, key, /*metres=*/true); };
+      AddModelJob(&jobs, &keys, std::move(job), model_dir);
+    }
+  }
+  if (jobs.empty()) return NotFoundError(root.string() + ": no OBJ models found");
+  return RunJobs(std::move(jobs), out, options);
+}
+
 }  // namespace
 
 Result<ConvertReport> Convert(const ConvertOptions& options) {
@@ -821,6 +1011,12 @@ Result<ConvertReport> Convert(const ConvertOptions& options) {
       return ConvertSceneNet(options.root, options.out, options);
     case Source::kProcedural:
       return ConvertProcedural(options.procedural, options.out, options);
+    case Source::kGltf:
+      if (options.root.empty()) return OptionError("root", "give the folder of glTF/GLB files to read");
+      return ConvertGltf(options.root, options.out, options.gltf_layout, options);
+    case Source::kObj:
+      if (options.root.empty()) return OptionError("root", "give the folder of OBJ models to read");
+      return ConvertObjFolder(options.root, options.out, options.obj_layout, options);
   }
   return OptionError("source", "not a source kind");
 }

@@ -7,6 +7,7 @@
 #include "solid/formats/checksum.h"
 #include "solid/formats/files.h"
 #include "solid/formats/json_schema.h"
+#include "solid/formats/schemas.h"
 #include "sqlite_schema.h"
 #include "sqlite_util.h"
 
@@ -73,6 +74,26 @@ Result<CatalogEntry> ParseEntry(const Stmt& s, const std::string& file) {
   return e;
 }
 
+// A version-1 catalog (schemas/catalog_v1.sql) becomes version 2 in one transaction: the
+// tables are made anew from catalog.sql (SQLite cannot alter a CHECK) and the rows copied.
+// Any other file is refused as CheckSchema refuses it.
+Status MigrateFromV1(Db& db) {
+  SOLID_RETURN_IF_ERROR(sqlite::CheckSchema(db, "catalog_v1.sql"));
+  SOLID_ASSIGN_OR_RETURN(std::string_view ddl, schemas::Get("catalog.sql"));
+  SOLID_RETURN_IF_ERROR(db.Exec("BEGIN IMMEDIATE"));
+  Status s = db.Exec(fmt::format(
+      "ALTER TABLE catalog_meta RENAME TO catalog_meta_v1; ALTER TABLE assets RENAME TO assets_v1; {}\n"
+      "INSERT INTO catalog_meta SELECT * FROM catalog_meta_v1; INSERT INTO assets ({}) SELECT {} FROM assets_v1;"
+      "DROP TABLE catalog_meta_v1; DROP TABLE assets_v1;",
+      ddl, kColumns, kColumns));
+  if (!s.ok()) {
+    (void)db.Exec("ROLLBACK");
+    return s.WithContext("migrating the catalog from version 1");
+  }
+  SOLID_RETURN_IF_ERROR(db.Exec("COMMIT").WithContext("migrating the catalog from version 1"));
+  return sqlite::CheckSchema(db, "catalog.sql");
+}
+
 }  // namespace
 
 std::string_view AssetStatusName(AssetStatus s) {
@@ -114,7 +135,10 @@ Result<Catalog> Catalog::OpenForWriting(const fs::path& path) {
     if (!created.ok() && created.code() != StatusCode::kAlreadyExists) return created;
   }
   SOLID_ASSIGN_OR_RETURN(impl->db, Db::Open(path, sqlite::OpenMode::kCreate));
-  SOLID_RETURN_IF_ERROR(sqlite::CheckSchema(impl->db, "catalog.sql"));
+  if (Status s = sqlite::CheckSchema(impl->db, "catalog.sql"); !s.ok()) {
+    if (s.code() != StatusCode::kUnsupportedVersion) return s;
+    SOLID_RETURN_IF_ERROR(MigrateFromV1(impl->db));
+  }
   // WAL: each Put is one small durable commit, and readers never block the converter.
   SOLID_RETURN_IF_ERROR(impl->db.Exec("PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;"));
   return Catalog(std::move(impl));
@@ -132,7 +156,10 @@ Result<Catalog> Catalog::OpenReadOnly(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return NotFoundError(path.string() + ": no catalog");
   SOLID_ASSIGN_OR_RETURN(impl->db, Db::Open(path, sqlite::OpenMode::kUntrustedRead));
-  SOLID_RETURN_IF_ERROR(sqlite::CheckSchema(impl->db, "catalog.sql"));
+  // Version 1 has the same columns: its rows read as they are.
+  if (Status s = sqlite::CheckSchema(impl->db, "catalog.sql"); !s.ok()) {
+    if (s.code() != StatusCode::kUnsupportedVersion || !sqlite::CheckSchema(impl->db, "catalog_v1.sql").ok()) return s;
+  }
   return Catalog(std::move(impl));
 }
 

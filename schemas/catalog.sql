@@ -4,7 +4,7 @@
 -- Conventions as in shard.sql.
 
 PRAGMA application_id = 1397506115;  -- 0x534C4043, 'SL@C'
-PRAGMA user_version = 1;
+PRAGMA user_version = 2;  -- 2: sources 'gltf' and 'obj' (1: catalog_v1.sql, read and migrated)
 
 CREATE TABLE catalog_meta (
   key   TEXT PRIMARY KEY NOT NULL,
@@ -14,7 +14,7 @@ CREATE TABLE catalog_meta (
 CREATE TABLE assets (
   key               TEXT PRIMARY KEY NOT NULL,  -- 'synset/model_id', a SceneNet scene path, 'procedural/shape-000001'
   kind              TEXT NOT NULL CHECK (kind IN ('model', 'room')),
-  source            TEXT NOT NULL CHECK (source IN ('shapenet_v1', 'shapenet_v2', 'scenenet', 'procedural')),
+  source            TEXT NOT NULL CHECK (source IN ('shapenet_v1', 'shapenet_v2', 'scenenet', 'procedural', 'gltf', 'obj')),
   file              TEXT,                     -- .glb relative to the assets directory; NULL when failed
   status            TEXT NOT NULL CHECK (status IN ('ok', 'ok_with_warnings', 'failed')),
   input_files       TEXT NOT NULL,            -- JSON array of input paths relative to the source root
@@ -34,6 +34,7 @@ CREATE TABLE assets (
   error_code        TEXT,                     -- failure code (missing_obj, parse_error...) when failed
   error             TEXT,                     -- message naming file and line where that applies
   counts            TEXT NOT NULL DEFAULT '{}',  -- JSON object: cleaning and parsing counters
-  extras            TEXT NOT NULL DEFAULT '{}',  -- JSON object: per-source details (room floor area...)
+  extras            TEXT NOT NULL DEFAULT '{}',  -- JSON object: per-source details (room floor area;
+                                               -- gltf: source_extent_m [x, y, z] before normalisation...)
   CHECK ((status = 'failed') = (file IS NULL))
 ) WITHOUT ROWID;

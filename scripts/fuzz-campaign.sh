@@ -23,7 +23,7 @@
 #           (default: all)
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
-all_targets=(obj glb rle image params search_space manifest shard query_shard index catalog)
+all_targets=(obj gltf glb rle image params search_space manifest shard query_shard index catalog)
 build=build-fuzz work=${HOME}/solid-fuzz seconds=1800 jobs=1 timeout=25 rss=2048
 while getopts "b:w:m:s:j:t:r:h" opt; do
   case $opt in

@@ -10,6 +10,12 @@ if [ ! -d tests/gltf_validator/node_modules/gltf-validator ] && command -v npm >
   npm ci --prefix tests/gltf_validator --no-audit --no-fund --silent >/dev/null 2>&1 ||
     echo "test: could not install npm gltf-validator; glTF validation tests will skip"
 fi
+# @gltf-transform/cli, which makes the meshopt, quantized, Draco and separate-.bin variants
+# of the glTF input tests (they skip, saying so, without it) and is the glTF benchmark's baseline.
+if [ ! -d tests/gltf_transform/node_modules/@gltf-transform/cli ] && command -v npm >/dev/null; then
+  npm ci --prefix tests/gltf_transform --no-audit --no-fund --silent >/dev/null 2>&1 ||
+    echo "test: could not install npm @gltf-transform/cli; the glTF variant tests will skip"
+fi
 # The Kubernetes API schema for the farm test of the Indexed Job manifest (it skips, saying so,
 # without it).
 if [ ! -d tests/farm/kubernetes/node_modules/kubernetes-models ] && command -v npm >/dev/null; then

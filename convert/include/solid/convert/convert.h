@@ -41,12 +41,31 @@ struct ItemOutcome {
   double milliseconds = 0;
 };
 
-// What Convert reads. glTF and OBJ folders are to come as sources of their own.
+// What Convert reads.
 enum class Source {
   kShapeNet,    // a ShapeNetCore v1 or v2 tree at `root`
   kSceneNet,    // SceneNet rooms (*.obj below `root`)
   kProcedural,  // built-in shapes and rooms (`procedural`), no input
+  // glTF 2.0 corpora (`solid convert gltf`): every .glb/.gltf below root, read through
+  // tinygltf (docs/limits.md), the default scene flattened into one node with one primitive
+  // per material, then normalised as ShapeNet v2 models are; the catalog row's extras keep
+  // "source_extent_m" (the bounding box in metres before normalisation). Output
+  // OUT/models/<key>.glb, source "gltf". Failure codes: those of convert/gltf_reader.h, plus
+  // unsafe_name and duplicate_key.
+  kGltf,
+  // Folders of plain OBJ models (`solid convert obj`), through ShapeNet's OBJ/MTL reader and
+  // cleaning and with its failure codes, normalised as ShapeNet v2. Output
+  // OUT/models/<key>.glb, source "obj".
+  kObj,
 };
+
+// kGltf: kFlat: key = path below root without extension; kObjaverse: glbs/NNN-NNN/<uid>.glb
+// gives key <uid> (other files are not considered).
+enum class GltfLayout { kFlat, kObjaverse };
+// kObj: kFlat: every .obj below root, key = path without extension, textures confined to the
+// OBJ's folder; kGso: <name>/meshes/model.obj; kYcb: <name>/google_16k/textured.obj (key
+// <name>, textures confined to <name>/, extent in metres).
+enum class ObjLayout { kFlat, kGso, kYcb };
 
 struct ProceduralSet {
   int models = 64;
@@ -57,9 +76,11 @@ struct ProceduralSet {
 
 struct ConvertOptions {
   Source source = Source::kProcedural;
-  std::filesystem::path root;  // the input tree (ShapeNet, SceneNet)
+  std::filesystem::path root;  // the input tree (ShapeNet, SceneNet, glTF, OBJ folders)
   std::filesystem::path out;   // the assets directory written
   ProceduralSet procedural;    // kProcedural
+  GltfLayout gltf_layout = GltfLayout::kFlat;  // kGltf
+  ObjLayout obj_layout = ObjLayout::kFlat;     // kObj
   int jobs = 0;                      // 0: all cores
   int64_t limit = -1;                // convert at most this many assets (after filtering); -1: all
   std::vector<std::string> synsets;  // ShapeNet: only these synset folders (empty: all)

@@ -27,7 +27,7 @@ std::string_view AssetStatusName(AssetStatus s);  // "ok", "ok_with_warnings", "
 struct CatalogEntry {
   std::string key;
   std::string kind;    // "model" or "room"
-  std::string source;  // "shapenet_v1", "shapenet_v2", "scenenet", "procedural"
+  std::string source;  // "shapenet_v1", "shapenet_v2", "scenenet", "procedural", "gltf", "obj"
   std::optional<std::string> file;  // relative .glb path; empty when failed
   AssetStatus status = AssetStatus::kOk;
   nlohmann::json input_files = nlohmann::json::array();
@@ -47,7 +47,8 @@ struct CatalogEntry {
 class Catalog {
  public:
   // Creates the file (and its schema) if absent, whole or not at all; refuses a file of
-  // another kind or version.
+  // another kind or version, except a version-1 catalog, which it migrates to version 2
+  // (glTF and OBJ-folder sources) in place. OpenReadOnly reads both versions.
   static Result<Catalog> OpenForWriting(const std::filesystem::path& path);
   static Result<Catalog> OpenReadOnly(const std::filesystem::path& path);
   Catalog(Catalog&&) noexcept;
