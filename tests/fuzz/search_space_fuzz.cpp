@@ -11,7 +11,7 @@
 #include "solid/optimizer/search_space.h"
 
 using solid::fuzz::Fail;
-namespace optimize = solid::optimizer;
+namespace optimizer = solid::optimizer;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::filesystem::path path = solid::fuzz::ScratchDir() / "space.json";
