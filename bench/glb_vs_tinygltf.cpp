@@ -13,10 +13,10 @@
 
 #include "solid/convert/procedural.h"
 #include "solid/formats/glb.h"
+#include "best_time.h"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 
 bool KeepImageBytes(tinygltf::Image* image, const int, std::string*, std::string*, int, int, const unsigned char* bytes,
                     int size, void*) {
@@ -60,16 +60,7 @@ Outcome Theirs(const std::vector<uint8_t>& glb) {
   return out;
 }
 
-template <typename F>
-double BestMs(int repeat, F&& f) {
-  double best = 1e300;
-  for (int r = 0; r < repeat; ++r) {
-    const auto start = Clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-  }
-  return best;
-}
+using solid::bench::BestMs;
 
 }  // namespace
 

@@ -13,10 +13,10 @@
 #include <sstream>
 
 #include "obj.h"
+#include "best_time.h"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 
 std::string ReadText(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -75,16 +75,7 @@ Outcome Theirs(const std::string& text) {
   return out;
 }
 
-template <typename F>
-double BestMs(int repeat, F&& f) {
-  double best = 1e300;
-  for (int r = 0; r < repeat; ++r) {
-    const auto start = Clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-  }
-  return best;
-}
+using solid::bench::BestMs;
 
 void Time(const std::string& label, const std::string& text, int repeat) {
   const Outcome ours = Ours(text, label), theirs = Theirs(text);
