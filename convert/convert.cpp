@@ -10,7 +10,6 @@
 #include <deque>
 #include <memory>
 #include <mutex>
-#include <regex>
 #include <set>
 
 #include "obj.h"
@@ -496,15 +495,47 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
 
 namespace {
 
+// True when every character of s is in `allowed` and its length is in [min, max].
+bool AllOf(std::string_view s, std::string_view allowed, size_t min, size_t max) {
+  return s.size() >= min && s.size() <= max && s.find_first_not_of(allowed) == std::string_view::npos;
+}
+
+constexpr std::string_view kDigits = "0123456789", kHexDigits = "0123456789abcdef";
+
+bool IsSynsetName(std::string_view name) { return AllOf(name, kDigits, 8, 8); }
+
+// ShapeNet ids: 28-32 lower-case hex digits, or "u" and a UUID (a few v2 models).
+bool IsShapeNetModelId(std::string_view id) {
+  if (AllOf(id, kHexDigits, 28, 32)) return true;
+  if (id.size() != 37 || id[0] != 'u') return false;
+  for (size_t i = 1; i < id.size(); ++i) {
+    const bool dash = i == 9 || i == 14 || i == 19 || i == 24;
+    if (dash ? id[i] != '-' : kHexDigits.find(id[i]) == std::string_view::npos) return false;
+  }
+  return true;
+}
+
+// Objaverse's `glbs/000-NNN/<uid>.glb`: the uid, or nothing for any other path.
+std::optional<std::string> ObjaverseKey(std::string_view relative) {
+  constexpr std::string_view kPrefix = "glbs/", kSuffix = ".glb";
+  if (!relative.starts_with(kPrefix) || !relative.ends_with(kSuffix)) return std::nullopt;
+  const std::string_view inner = relative.substr(kPrefix.size(), relative.size() - kPrefix.size() - kSuffix.size());
+  if (inner.size() < 9 || !AllOf(inner.substr(0, 3), kDigits, 3, 3) || inner[3] != '-' ||
+      !AllOf(inner.substr(4, 3), kDigits, 3, 3) || inner[7] != '/') {
+    return std::nullopt;
+  }
+  const std::string_view uid = inner.substr(8);
+  if (uid.find('/') != std::string_view::npos) return std::nullopt;
+  return std::string(uid);
+}
+
 Result<ConvertReport> ConvertShapeNet(const fs::path& root, const fs::path& out, const ConvertOptions& options) {
   std::error_code ec;
   if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
-  static const std::regex kSynset("^[0-9]{8}$");
-  static const std::regex kModelId("^[0-9a-f]{28,32}$|^u[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}$");
   std::vector<fs::path> synset_dirs;
   for (const fs::path& p : SortedEntries(root, true)) {
     std::string name = p.filename().string();
-    if (!std::regex_match(name, kSynset)) continue;
+    if (!IsSynsetName(name)) continue;
     if (!options.synsets.empty() &&
         std::find(options.synsets.begin(), options.synsets.end(), name) == options.synsets.end()) {
       continue;
@@ -553,7 +584,7 @@ Result<ConvertReport> ConvertShapeNet(const fs::path& root, const fs::path& out,
       if (!have_taxonomy) {
         job.discovery_warnings.push_back({"missing_taxonomy", root.string() + "/taxonomy.json: not found"});
       }
-      if (!std::regex_match(model, kModelId)) {
+      if (!IsShapeNetModelId(model)) {
         job.discovery_warnings.push_back({"unexpected_model_id", fmt::format("{}: '{}' is not a ShapeNet model id",
                                                                              synset_dir.string(), model)});
       }
@@ -925,7 +956,6 @@ Result<ConvertReport> ConvertGltf(const fs::path& root, const fs::path& out, Glt
                                   const ConvertOptions& options) {
   std::error_code ec;
   if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
-  static const std::regex kObjaverse("^glbs/[0-9]{3}-[0-9]{3}/([^/]+)\\.glb$");
   std::vector<Job> jobs;
   std::set<std::string> keys;
   for (const fs::path& file : FilesUnder(root, [](const fs::path& p) {
@@ -934,9 +964,9 @@ Result<ConvertReport> ConvertGltf(const fs::path& root, const fs::path& out, Glt
     const std::string relative = fs::relative(file, root).generic_string();
     Job job;
     if (layout == GltfLayout::kObjaverse) {
-      std::smatch m;
-      if (!std::regex_match(relative, m, kObjaverse)) continue;
-      job.key = m[1].str();
+      std::optional<std::string> key = ObjaverseKey(relative);
+      if (!key) continue;
+      job.key = std::move(*key);
     } else {
       job.key = fs::path(relative).replace_extension().generic_string();
     }

@@ -95,6 +95,8 @@ std::string_view TransformName(Transform t) {
     case Transform::kRange: return "range";
     case Transform::kUpper: return "upper";
     case Transform::kLower: return "lower";
+    case Transform::kShift: return "shift";
+    case Transform::kScale: return "scale";
     case Transform::kSimplex: return "simplex";
   }
   return "?";
@@ -183,7 +185,11 @@ Result<SearchSpace> SearchSpace::Parse(const nlohmann::json& document, std::stri
     } else if (transform == "simplex") {
       k.transform = Transform::kSimplex;
     } else {
-      k.transform = transform == "upper" ? Transform::kUpper : transform == "lower" ? Transform::kLower : Transform::kValue;
+      k.transform = transform == "upper"   ? Transform::kUpper
+                    : transform == "lower" ? Transform::kLower
+                    : transform == "shift" ? Transform::kShift
+                    : transform == "scale" ? Transform::kScale
+                                           : Transform::kValue;
       k.bounds = BoundsFromJson(spec.at("bounds"));
     }
     k.step = spec.value("step", 0.0);
@@ -245,9 +251,10 @@ Result<std::vector<Dimension>> SearchSpace::Dimensions(const LayoutParams& start
       switch (info->kind) {
         case Kind::kScalar: return k.transform == Transform::kValue;
         case Kind::kInterval:
-          return k.transform == Transform::kRange || k.transform == Transform::kUpper || k.transform == Transform::kLower;
+          return k.transform == Transform::kRange || k.transform == Transform::kUpper ||
+                 k.transform == Transform::kLower || k.transform == Transform::kShift;
         case Kind::kScaleP: return k.transform == Transform::kSimplex;
-        case Kind::kScaleRange: return k.transform == Transform::kRange;
+        case Kind::kScaleRange: return k.transform == Transform::kRange || k.transform == Transform::kScale;
       }
       return false;
     }();
@@ -261,6 +268,8 @@ Result<std::vector<Dimension>> SearchSpace::Dimensions(const LayoutParams& start
         if (k.transform == Transform::kRange) {
           add(k.name + ".low", k.bounds, k.step);
           add(k.name + ".width", k.width, k.step);
+        } else if (k.transform == Transform::kShift) {
+          add(k.name + ".shift", k.bounds, k.step);
         } else {
           add(k.name + (k.transform == Transform::kUpper ? ".hi" : ".lo"), k.bounds, k.step);
         }
@@ -275,6 +284,10 @@ Result<std::vector<Dimension>> SearchSpace::Dimensions(const LayoutParams& start
         for (size_t i = 0; i + 1 < start.scale.buckets.size(); ++i) add(fmt::format("{}[{}]", k.name, i), {0, 1}, k.step);
         break;
       case Kind::kScaleRange:
+        if (k.transform == Transform::kScale) {
+          add(k.name + ".top", k.bounds, k.step);
+          break;
+        }
         for (size_t i = 0; i < start.scale.buckets.size(); ++i) {
           add(fmt::format("{}[{}].low", k.name, i), k.bounds, k.step);
           add(fmt::format("{}[{}].width", k.name, i), k.width, k.step);
@@ -296,6 +309,8 @@ std::vector<double> SearchSpace::Encode(const LayoutParams& p) const {
         if (k.transform == Transform::kRange) {
           x.push_back(Clamp(v.lo, k.bounds.lo, k.bounds.hi));
           x.push_back(Clamp(v.hi - v.lo, k.width.lo, k.width.hi));
+        } else if (k.transform == Transform::kShift) {
+          x.push_back(Clamp(v.lo, k.bounds.lo, k.bounds.hi));
         } else {
           x.push_back(Clamp(k.transform == Transform::kUpper ? v.hi : v.lo, k.bounds.lo, k.bounds.hi));
         }
@@ -311,6 +326,10 @@ std::vector<double> SearchSpace::Encode(const LayoutParams& p) const {
         break;
       }
       case Kind::kScaleRange:
+        if (k.transform == Transform::kScale) {
+          x.push_back(Clamp(p.scale.buckets.back().size_m.hi, k.bounds.lo, k.bounds.hi));
+          break;
+        }
         for (const render::ScaleBucket& b : p.scale.buckets) {
           x.push_back(Clamp(b.size_m.lo, k.bounds.lo, k.bounds.hi));
           x.push_back(Clamp(b.size_m.hi - b.size_m.lo, k.width.lo, k.width.hi));
@@ -337,6 +356,10 @@ Result<LayoutParams> SearchSpace::Decode(const LayoutParams& base, std::span<con
         if (k.transform == Transform::kRange) {
           v.lo = next();
           v.hi = v.lo + next();
+        } else if (k.transform == Transform::kShift) {
+          const double width = v.hi - v.lo;
+          v.lo = next();
+          v.hi = v.lo + width;
         } else if (k.transform == Transform::kUpper) {
           v.hi = std::max(next(), v.lo);
         } else {
@@ -354,6 +377,11 @@ Result<LayoutParams> SearchSpace::Decode(const LayoutParams& base, std::span<con
         break;
       }
       case Kind::kScaleRange:
+        if (k.transform == Transform::kScale) {
+          const double factor = next() / p.scale.buckets.back().size_m.hi;
+          for (render::ScaleBucket& b : p.scale.buckets) b.size_m = {b.size_m.lo * factor, b.size_m.hi * factor};
+          break;
+        }
         for (render::ScaleBucket& b : p.scale.buckets) {
           b.size_m.lo = next();
           b.size_m.hi = b.size_m.lo + next();

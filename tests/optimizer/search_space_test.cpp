@@ -119,13 +119,41 @@ TEST(SearchSpace, DecodeInvertsEncode) {
     Result<render::LayoutParams> back = space.Decode(start, space.Encode(start));
     ASSERT_OK(back.status());
     EXPECT_NEAR(back->attempts.hi, start.attempts.hi, 1e-12) << name;
+    EXPECT_NEAR(back->attempts.lo, start.attempts.lo, 1e-12) << name;
     EXPECT_NEAR(back->camera_height_m.hi, start.camera_height_m.hi, 1e-12) << name;
     ASSERT_EQ(back->scale.buckets.size(), start.scale.buckets.size());
     for (size_t i = 0; i < start.scale.buckets.size(); ++i) {
       EXPECT_NEAR(back->scale.buckets[i].probability, start.scale.buckets[i].probability, 1e-12) << name;
+      EXPECT_NEAR(back->scale.buckets[i].size_m.lo, start.scale.buckets[i].size_m.lo, 1e-12) << name;
       EXPECT_NEAR(back->scale.buckets[i].size_m.hi, start.scale.buckets[i].size_m.hi, 1e-12) << name;
     }
   }
+}
+
+TEST(SearchSpace, ShiftKeepsTheWidthAndScaleKeepsTheProportions) {
+  const render::LayoutParams start = Preset("more-objects");
+  Result<SearchSpace> space = Parse(R"({"free": {
+    "objects.attempts": {"transform": "shift", "bounds": [1, 60]},
+    "objects.scale.range_m": {"transform": "scale", "bounds": [1, 6]}
+  }})");
+  ASSERT_OK(space.status());
+  // Knobs in name order: attempts, then the scale.
+  Result<render::LayoutParams> p = space->Decode(start, std::vector<double>{30, 4.5});
+  ASSERT_OK(p.status());
+  EXPECT_DOUBLE_EQ(p->attempts.lo, 30);
+  EXPECT_DOUBLE_EQ(p->attempts.hi, 30 + (start.attempts.hi - start.attempts.lo));
+  ASSERT_EQ(p->scale.buckets.size(), start.scale.buckets.size());
+  const double factor = 4.5 / start.scale.buckets.back().size_m.hi;
+  for (size_t i = 0; i < start.scale.buckets.size(); ++i) {
+    EXPECT_DOUBLE_EQ(p->scale.buckets[i].size_m.lo, start.scale.buckets[i].size_m.lo * factor) << i;
+    EXPECT_DOUBLE_EQ(p->scale.buckets[i].size_m.hi, start.scale.buckets[i].size_m.hi * factor) << i;
+    EXPECT_EQ(p->scale.buckets[i].probability, start.scale.buckets[i].probability) << i;
+  }
+  EXPECT_THAT(space->Encode(*p), ::testing::ElementsAre(30, 4.5));
+
+  // "scale" is for size ranges, "shift" for intervals.
+  space = Parse(R"({"free": {"objects.attempts": {"transform": "scale", "bounds": [1, 6]}}})");
+  EXPECT_FALSE(space.ok());
 }
 
 TEST(SearchSpace, EveryCornerOfTheBoxDecodesToValidParams) {

@@ -103,18 +103,18 @@ TEST(RenderCli, AFarmOfShardProcessesEqualsOneProcess) {
   // Six shards, six processes at once: half told by --shard, half by the variables
   // Slurm job arrays and Kubernetes Indexed Jobs set.
   std::vector<std::thread> processes;
-  std::vector<int> exits(6, -1);
+  std::vector<fixtures::CommandRun> runs(6);
   for (int k = 0; k < 6; ++k) {
     processes.emplace_back([&, k] {
       std::string command = Shell(RenderArguments(farm, 1));
       if (k % 3 == 0) command += " --shard " + std::to_string(k);
       if (k % 3 == 1) command = "SLURM_ARRAY_TASK_ID=" + std::to_string(k) + " " + command;
       if (k % 3 == 2) command = "JOB_COMPLETION_INDEX=" + std::to_string(k) + " " + command;
-      exits[k] = RunCommand(command).exit_status;
+      runs[k] = RunCommand(command);
     });
   }
   for (std::thread& p : processes) p.join();
-  for (int k = 0; k < 6; ++k) EXPECT_EQ(exits[k], 0) << "shard " << k;
+  for (int k = 0; k < 6; ++k) EXPECT_EQ(runs[k].exit_status, 0) << "shard " << k << ":\n" << runs[k].output;
   const Result<IndexReport> index = Index({.dataset = farm});
   ASSERT_OK(index.status());
   EXPECT_TRUE(index->ok());

@@ -5,6 +5,10 @@
 //   value    a scalar knob within bounds                          ("placement.occlude_prob")
 //   range    an interval [lo, hi] as (low, width), hi = low + width ("objects.attempts.low", ".width")
 //   upper    an interval's hi alone, lower its lo alone             ("camera.height_m.hi")
+//   shift    an interval moved as a whole, its width kept; the dimension is its lo
+//            ("objects.attempts.shift")
+//   scale    every bucket's size range multiplied by one factor; the dimension is the last
+//            bucket's hi, in metres ("objects.scale.range_m.top")
 //   simplex  a mixture's k bucket probabilities as k - 1 stick-breaking fractions in [0, 1]
 //            ("objects.scale.p[0]", ...): p_1 = v_1, p_2 = (1 - v_1) v_2, ..., p_k the rest
 // Integer counts (objects.attempts) are already reals in LayoutParams: N = floor(U(lo, hi + 1)).
@@ -24,12 +28,12 @@
 
 namespace solid::optimizer {
 
-enum class Transform { kValue, kRange, kUpper, kLower, kSimplex };
+enum class Transform { kValue, kRange, kUpper, kLower, kShift, kScale, kSimplex };
 
 struct FreeKnob {
   std::string name;  // dotted, as in params.schema.json: "camera.ring_m"
   Transform transform = Transform::kValue;
-  render::Interval bounds;  // value, upper, lower: of the value; range: of the low end
+  render::Interval bounds;  // value, upper, lower, scale: of the value; range, shift: of the low end
   render::Interval width;   // range only
   double step = 0;          // initial step in the knob's units; 0: a fifth of each dimension's bounds
 };
