@@ -440,7 +440,10 @@ std::vector<uint8_t> RewriteForTinygltf(std::span<const uint8_t> bytes, bool bin
     json& b = j["buffers"][i];
     if (!b.is_object() || b.contains("uri") || !b.contains("extensions") || !b["extensions"].is_object()) continue;
     const json& ext = b["extensions"].value("EXT_meshopt_compression", json());
-    if (!ext.is_object() || !ext.value("fallback", false) || !b.contains("byteLength") ||
+    // value() would throw on a "fallback" that is not a boolean (gltf_fuzz found it).
+    const auto fallback = ext.is_object() ? ext.find("fallback") : ext.end();
+    if (!ext.is_object() || fallback == ext.end() || !fallback->is_boolean() || !fallback->get<bool>() ||
+        !b.contains("byteLength") ||
         !b["byteLength"].is_number_unsigned()) {
       continue;
     }
@@ -942,6 +945,11 @@ GltfReadResult ReadGltfModel(std::span<const uint8_t> bytes, const fs::path& pat
   } catch (const std::bad_alloc&) {
     result.ok = false;
     result.failure = {"limit_exceeded", name + ": out of memory"};
+    result.model = {};
+  } catch (const json::exception& e) {
+    // A JSON value of a type the reader did not foresee is bad input, not a crash.
+    result.ok = false;
+    result.failure = {"parse_error", fmt::format("{}: {}", name, e.what())};
     result.model = {};
   }
   return result;

@@ -331,6 +331,14 @@ TEST(GltfReader, BrokenFilesFailWithTheirCodeAndWhere) {
     EXPECT_TRUE(c.starts_with("parse_error | ")) << c;
     EXPECT_NE(c.find("/images/0: bufferView 1 lies outside its buffer"), std::string::npos) << c;
   }
+  {  // a meshopt "fallback" that is a number, not a boolean, used to throw (gltf_fuzz found it):
+     // it is no fallback, and the buffer, used by nothing, is left alone
+    GltfBuilder b;
+    b.Node({{"mesh", b.Mesh({{"attributes", {{"POSITION", b.Positions(kTriangle)}}}})}});
+    b.doc["buffers"].push_back({{"byteLength", 44}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", 8}}}}}});
+    b.doc["extensionsUsed"] = json::array({"EXT_meshopt_compression"});
+    EXPECT_EQ(code_of(b), "ok");
+  }
   GltfReadResult garbage = Read({'g', 'l', 'T', 'F', 2, 0, 0, 0, 99, 0, 0, 0}, dir.path() / "g.glb");
   EXPECT_FALSE(garbage.ok);
   EXPECT_EQ(garbage.failure.code, "parse_error");
