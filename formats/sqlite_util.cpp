@@ -49,8 +49,9 @@ Result<Db> Db::Open(const std::filesystem::path& path, OpenMode mode, std::strin
                                raw ? Cause(raw, rc, sqlite3_errmsg(raw)) : sqlite3_errstr(rc)));
   }
   sqlite3_extended_result_codes(raw, 1);
-  // Farm processes open one catalog (WAL) at once: the first rebuilds its shared-memory
-  // index while the others get SQLITE_BUSY_RECOVERY, which is a wait, not an error.
+  // Farm processes open one catalog (WAL) and one dataset at once: a database busy with
+  // another connection (a reader rebuilding the WAL index, a writer's lock) is a wait, not
+  // an error. Without a handler SQLite returns SQLITE_BUSY at once.
   sqlite3_busy_timeout(raw, 30'000);
   if (mode == OpenMode::kUntrustedRead) {
     // https://www.sqlite.org/security.html: a hostile file must not be able to run
