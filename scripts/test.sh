@@ -11,7 +11,8 @@ if [ ! -d tests/gltf_validator/node_modules/gltf-validator ] && command -v npm >
     echo "test: could not install npm gltf-validator; glTF validation tests will skip"
 fi
 # @gltf-transform/cli, which makes the meshopt, quantized, Draco and separate-.bin variants
-# of the glTF input tests (they skip, saying so, without it) and is the glTF benchmark's baseline.
+# of the glTF input tests and is the glTF benchmark's baseline, and obj2gltf, which makes the
+# glTF of an OBJ for the OBJ-against-glTF test (they skip, saying so, without them).
 if [ ! -d tests/gltf_transform/node_modules/@gltf-transform/cli ] && command -v npm >/dev/null; then
   npm ci --prefix tests/gltf_transform --no-audit --no-fund --silent >/dev/null 2>&1 ||
     echo "test: could not install npm @gltf-transform/cli; the glTF variant tests will skip"

@@ -607,6 +607,57 @@ TEST(ConvertObjFolder, GsoAndYcbLayoutsFindTheirMeshesAndTextures) {
   EXPECT_EQ(yrows["003_cracker_box"].extras["source_extent_m"], json({1.0, 1.0, 0.0}));
 }
 
+// obj2gltf (tests/gltf_transform; the converter SOLID and kubric used) turns a textured OBJ
+// into a glb: it converts to the geometry and texture the OBJ itself converts to.
+TEST(ConvertGltf, Obj2gltfOutputConvertsToTheGeometryOfItsObj) {
+  const fs::path cli = fs::path(SOLID_SOURCE_DIR) / "tests/gltf_transform/node_modules/.bin/obj2gltf";
+  std::error_code ec;
+  if (!fs::exists(cli, ec) || std::system("node --version >/dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "npm obj2gltf not installed: run npm ci --prefix tests/gltf_transform";
+  }
+  TempDir dir;
+  const fs::path obj_dir = dir.path() / "obj", gltf_dir = dir.path() / "gltf";
+  fs::create_directories(obj_dir);
+  fs::create_directories(gltf_dir);
+  // A box 1 x 1 x 3 with one texture over every face.
+  const std::vector<float> p = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 3, 1, 0, 3, 1, 1, 3, 0, 1, 3};
+  const std::vector<uint32_t> tris = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                      1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7};
+  std::string obj = "mtllib box.mtl\nvt 0 0\nvt 1 0\nvt 1 1\n";
+  for (size_t i = 0; i < p.size(); i += 3) obj += fmt::format("v {} {} {}\n", p[i], p[i + 1], p[i + 2]);
+  obj += "usemtl painted\n";
+  for (size_t t = 0; t < tris.size(); t += 3) {
+    obj += fmt::format("f {}/1 {}/2 {}/3\n", tris[t] + 1, tris[t + 1] + 1, tris[t + 2] + 1);
+  }
+  const std::string mtl = "newmtl painted\nKd 1 1 1\nmap_Kd box.png\n";
+  Result<std::vector<uint8_t>> png = EncodeImage(Image8{4, 4, 3, std::vector<uint8_t>(48, 180)}, ImageFormat::kPng);
+  ASSERT_OK(png.status());
+  ASSERT_OK(files::WriteFileAtomically(obj_dir / "box.obj", std::vector<uint8_t>(obj.begin(), obj.end())));
+  ASSERT_OK(files::WriteFileAtomically(obj_dir / "box.mtl", std::vector<uint8_t>(mtl.begin(), mtl.end())));
+  ASSERT_OK(files::WriteFileAtomically(obj_dir / "box.png", *png));
+  const fixtures::CommandRun run = fixtures::RunCommand(fmt::format(
+      "{} -i {} -o {}", fixtures::ShellQuote(cli.string()), fixtures::ShellQuote((obj_dir / "box.obj").string()),
+      fixtures::ShellQuote((gltf_dir / "box.glb").string())));
+  ASSERT_EQ(run.exit_status, 0) << run.output;
+
+  auto a = ConvertObjFolder(obj_dir, dir.path() / "out_obj", ObjLayout::kFlat, {});
+  auto g = ConvertGltf(gltf_dir, dir.path() / "out_gltf", GltfLayout::kFlat, {});
+  ASSERT_TRUE(a.ok() && g.ok());
+  ASSERT_EQ(a->ok, 1);
+  ASSERT_EQ(g->ok, 1);
+  const gltf::Asset from_obj = ReadOutput(dir.path() / "out_obj" / "models" / "box.glb");
+  const gltf::Asset from_gltf = ReadOutput(dir.path() / "out_gltf" / "models" / "box.glb");
+  EXPECT_EQ(from_obj.textures.size(), 1u);
+  EXPECT_EQ(from_gltf.textures.size(), 1u);
+  ASSERT_EQ(from_obj.nodes.size(), 1u);
+  ASSERT_EQ(from_gltf.nodes.size(), 1u);
+  // Each side was quantized once with the same options: one step covers the difference.
+  gltf::DracoOptions coarser;
+  coarser.position_bits -= 1;
+  const fixtures::Fidelity f = fixtures::MatchTriangles(from_obj.nodes[0].primitives[0], from_gltf.nodes[0].primitives[0], coarser);
+  EXPECT_EQ(f.unmatched, 0u) << f.max_error;
+}
+
 // @gltf-transform/cli variants of one of our files (tests/gltf_transform; scripts/test.sh
 // installs it): the geometry must survive meshopt, quantization, Draco and a separate .bin.
 TEST(GltfReader, GltfTransformVariantsKeepTheGeometry) {
