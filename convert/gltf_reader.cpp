@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <stdexcept>
 
 #include <draco/compression/decode.h>
 #include <draco/core/decoder_buffer.h>
@@ -621,10 +622,16 @@ GltfReadResult ReadGltfModel(std::span<const uint8_t> bytes, const fs::path& pat
     loader.SetImageLoader(&KeepImageBytes, &model);
     loader.SetStoreOriginalJSONForExtrasAndExtensions(false);
     std::string err, warn;
-    const bool loaded = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
-                                                             static_cast<unsigned>(bytes.size()), fs_ctx.base_dir.string())
-                               : loader.LoadASCIIFromString(&model, &err, &warn, json_text.data(),
-                                                            static_cast<unsigned>(json_text.size()), fs_ctx.base_dir.string());
+    bool loaded = false;
+    try {
+      loaded = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
+                                                    static_cast<unsigned>(bytes.size()), fs_ctx.base_dir.string())
+                      : loader.LoadASCIIFromString(&model, &err, &warn, json_text.data(),
+                                                   static_cast<unsigned>(json_text.size()), fs_ctx.base_dir.string());
+    } catch (const std::out_of_range& e) {
+      // tinygltf 2.7 indexes an empty vector for a GLB buffer of byteLength 0 (gltf_fuzz found it).
+      Fail("parse_error", fmt::format("{}: tinygltf: {}", name, e.what()));
+    }
     if (!fs_ctx.rejected.empty()) Fail("external_path_rejected", fmt::format("{}: {}", name, fs_ctx.rejected));
     if (!fs_ctx.missing.empty()) Fail("missing_file", fmt::format("{}: {}", name, fs_ctx.missing));
     if (!loaded) {

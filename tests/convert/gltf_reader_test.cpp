@@ -339,6 +339,22 @@ TEST(GltfReader, BrokenFilesFailWithTheirCodeAndWhere) {
     b.doc["extensionsUsed"] = json::array({"EXT_meshopt_compression"});
     EXPECT_EQ(code_of(b), "ok");
   }
+  {  // a GLB buffer of byteLength 0, which tinygltf 2.7 indexes as if it had a byte (gltf_fuzz)
+    GltfBuilder b;
+    b.Node({{"mesh", b.Mesh({{"attributes", {{"POSITION", b.Positions(kTriangle)}}}})}});
+    std::vector<uint8_t> glb = b.Glb();
+    const std::string from = R"("buffers":[{"byteLength":)";
+    std::string text(glb.begin(), glb.end());
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos);
+    const size_t digits = text.find_first_not_of("0123456789", at + from.size());
+    // The same number of bytes: the JSON chunk keeps its length.
+    text.replace(at + from.size(), digits - at - from.size(), std::string(digits - at - from.size() - 1, ' ') + "0");
+    GltfReadResult r = Read(std::vector<uint8_t>(text.begin(), text.end()), dir.path() / "z.glb");
+    EXPECT_FALSE(r.ok);
+    EXPECT_EQ(r.failure.code, "parse_error") << r.failure.message;
+    EXPECT_NE(r.failure.message.find("tinygltf: "), std::string::npos) << r.failure.message;
+  }
   GltfReadResult garbage = Read({'g', 'l', 'T', 'F', 2, 0, 0, 0, 99, 0, 0, 0}, dir.path() / "g.glb");
   EXPECT_FALSE(garbage.ok);
   EXPECT_EQ(garbage.failure.code, "parse_error");
