@@ -548,6 +548,27 @@ TEST(ConvertGltf, FlatAndObjaverseLayoutsQuarantineAndResume) {
   EXPECT_EQ(run.files_reported, outputs.size()) << run.report;
 }
 
+// Converts ROOT/obj as a flat OBJ folder and ROOT/gltf as a flat glTF folder, one model
+// `key` in each, and expects one node from each with the same triangles: each side was
+// quantized once with the same options, so one step covers the difference.
+void ExpectSameGeometryFromObjAndGltf(const fs::path& root, const std::string& key, gltf::Asset* from_obj,
+                                      gltf::Asset* from_gltf) {
+  auto a = ConvertObjFolder(root / "obj", root / "out_obj", ObjLayout::kFlat, {});
+  auto g = ConvertGltf(root / "gltf", root / "out_gltf", GltfLayout::kFlat, {});
+  ASSERT_TRUE(a.ok() && g.ok());
+  ASSERT_EQ(a->ok, 1);
+  ASSERT_EQ(g->ok, 1);
+  *from_obj = ReadOutput(root / "out_obj" / "models" / (key + ".glb"));
+  *from_gltf = ReadOutput(root / "out_gltf" / "models" / (key + ".glb"));
+  ASSERT_EQ(from_obj->nodes.size(), 1u);
+  ASSERT_EQ(from_gltf->nodes.size(), 1u);
+  gltf::DracoOptions coarser;
+  coarser.position_bits -= 1;
+  const fixtures::Fidelity f =
+      fixtures::MatchTriangles(from_obj->nodes[0].primitives[0], from_gltf->nodes[0].primitives[0], coarser);
+  EXPECT_EQ(f.unmatched, 0u) << f.max_error;
+}
+
 // A unit cube, as an OBJ (the ShapeNet path) and as a glTF: the same geometry out.
 TEST(ConvertGltf, SameModelAsObjAndAsGltfGivesTheSameGeometry) {
   TempDir dir;
@@ -565,20 +586,8 @@ TEST(ConvertGltf, SameModelAsObjAndAsGltfGivesTheSameGeometry) {
   const int idx = b.Accessor(tris, "SCALAR", 5125);
   b.Node({{"mesh", b.Mesh({{"attributes", {{"POSITION", pos}}}, {"indices", idx}})}, {"scale", {1, 1, 3}}});
   ASSERT_OK(files::WriteFileAtomically(dir.path() / "gltf" / "cube.glb", b.Glb()));
-  auto a = ConvertObjFolder(dir.path() / "obj", dir.path() / "out_obj", ObjLayout::kFlat, {});
-  auto g = ConvertGltf(dir.path() / "gltf", dir.path() / "out_gltf", GltfLayout::kFlat, {});
-  ASSERT_TRUE(a.ok() && g.ok());
-  ASSERT_EQ(a->ok, 1);
-  ASSERT_EQ(g->ok, 1);
-  const gltf::Asset from_obj = ReadOutput(dir.path() / "out_obj" / "models" / "cube.glb");
-  const gltf::Asset from_gltf = ReadOutput(dir.path() / "out_gltf" / "models" / "cube.glb");
-  ASSERT_EQ(from_obj.nodes.size(), 1u);
-  ASSERT_EQ(from_gltf.nodes.size(), 1u);
-  // Both were quantized once with the same options: one step covers the difference.
-  gltf::DracoOptions coarser;
-  coarser.position_bits -= 1;
-  const fixtures::Fidelity f = fixtures::MatchTriangles(from_obj.nodes[0].primitives[0], from_gltf.nodes[0].primitives[0], coarser);
-  EXPECT_EQ(f.unmatched, 0u) << f.max_error;
+  gltf::Asset from_obj, from_gltf;
+  ExpectSameGeometryFromObjAndGltf(dir.path(), "cube", &from_obj, &from_gltf);
   EXPECT_EQ(TriangleCount(from_obj), 12u);
   EXPECT_EQ(TriangleCount(from_gltf), 12u);
   EXPECT_EQ(Rows(dir.path() / "out_gltf")["cube"].extras["source_extent_m"], json({1.0, 1.0, 3.0}));
@@ -623,14 +632,19 @@ TEST(ConvertObjFolder, GsoAndYcbLayoutsFindTheirMeshesAndTextures) {
   EXPECT_EQ(yrows["003_cracker_box"].extras["source_extent_m"], json({1.0, 1.0, 0.0}));
 }
 
+// A command of tests/gltf_transform's npm packages, or empty when they or node are missing.
+fs::path GltfTransformTool(std::string_view name) {
+  const fs::path cli = fs::path(SOLID_SOURCE_DIR) / "tests/gltf_transform/node_modules/.bin" / name;
+  std::error_code ec;
+  if (!fs::exists(cli, ec) || std::system("node --version >/dev/null 2>&1") != 0) return {};
+  return cli;
+}
+
 // obj2gltf (tests/gltf_transform; the converter SOLID and kubric used) turns a textured OBJ
 // into a glb: it converts to the geometry and texture the OBJ itself converts to.
 TEST(ConvertGltf, Obj2gltfOutputConvertsToTheGeometryOfItsObj) {
-  const fs::path cli = fs::path(SOLID_SOURCE_DIR) / "tests/gltf_transform/node_modules/.bin/obj2gltf";
-  std::error_code ec;
-  if (!fs::exists(cli, ec) || std::system("node --version >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "npm obj2gltf not installed: run npm ci --prefix tests/gltf_transform";
-  }
+  const fs::path cli = GltfTransformTool("obj2gltf");
+  if (cli.empty()) GTEST_SKIP() << "npm obj2gltf not installed: run npm ci --prefix tests/gltf_transform";
   TempDir dir;
   const fs::path obj_dir = dir.path() / "obj", gltf_dir = dir.path() / "gltf";
   fs::create_directories(obj_dir);
@@ -655,33 +669,17 @@ TEST(ConvertGltf, Obj2gltfOutputConvertsToTheGeometryOfItsObj) {
       "{} -i {} -o {}", fixtures::ShellQuote(cli.string()), fixtures::ShellQuote((obj_dir / "box.obj").string()),
       fixtures::ShellQuote((gltf_dir / "box.glb").string())));
   ASSERT_EQ(run.exit_status, 0) << run.output;
-
-  auto a = ConvertObjFolder(obj_dir, dir.path() / "out_obj", ObjLayout::kFlat, {});
-  auto g = ConvertGltf(gltf_dir, dir.path() / "out_gltf", GltfLayout::kFlat, {});
-  ASSERT_TRUE(a.ok() && g.ok());
-  ASSERT_EQ(a->ok, 1);
-  ASSERT_EQ(g->ok, 1);
-  const gltf::Asset from_obj = ReadOutput(dir.path() / "out_obj" / "models" / "box.glb");
-  const gltf::Asset from_gltf = ReadOutput(dir.path() / "out_gltf" / "models" / "box.glb");
+  gltf::Asset from_obj, from_gltf;
+  ExpectSameGeometryFromObjAndGltf(dir.path(), "box", &from_obj, &from_gltf);
   EXPECT_EQ(from_obj.textures.size(), 1u);
   EXPECT_EQ(from_gltf.textures.size(), 1u);
-  ASSERT_EQ(from_obj.nodes.size(), 1u);
-  ASSERT_EQ(from_gltf.nodes.size(), 1u);
-  // Each side was quantized once with the same options: one step covers the difference.
-  gltf::DracoOptions coarser;
-  coarser.position_bits -= 1;
-  const fixtures::Fidelity f = fixtures::MatchTriangles(from_obj.nodes[0].primitives[0], from_gltf.nodes[0].primitives[0], coarser);
-  EXPECT_EQ(f.unmatched, 0u) << f.max_error;
 }
 
 // @gltf-transform/cli variants of one of our files (tests/gltf_transform; scripts/test.sh
 // installs it): the geometry must survive meshopt, quantization, Draco and a separate .bin.
 TEST(GltfReader, GltfTransformVariantsKeepTheGeometry) {
-  const fs::path cli = fs::path(SOLID_SOURCE_DIR) / "tests/gltf_transform/node_modules/.bin/gltf-transform";
-  std::error_code ec;
-  if (!fs::exists(cli, ec) || std::system("node --version >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "npm @gltf-transform/cli not installed: run npm ci --prefix tests/gltf_transform";
-  }
+  const fs::path cli = GltfTransformTool("gltf-transform");
+  if (cli.empty()) GTEST_SKIP() << "npm @gltf-transform/cli not installed: run npm ci --prefix tests/gltf_transform";
   TempDir dir;
   // A plain (uncompressed) input, so that every variant starts from exact geometry.
   GltfBuilder b;
