@@ -9,14 +9,12 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
-#include <chrono>
 
 #include "solid/convert/procedural.h"
 #include "solid/formats/glb.h"
 #include "best_time.h"
 
 namespace {
-
 
 bool KeepImageBytes(tinygltf::Image* image, const int, std::string*, std::string*, int, int, const unsigned char* bytes,
                     int size, void*) {

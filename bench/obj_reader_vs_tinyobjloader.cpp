@@ -8,7 +8,6 @@
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
-#include <chrono>
 #include <fstream>
 #include <sstream>
 
@@ -16,7 +15,6 @@
 #include "best_time.h"
 
 namespace {
-
 
 std::string ReadText(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -441,10 +441,8 @@ std::vector<uint8_t> RewriteForTinygltf(std::span<const uint8_t> bytes, bool bin
     json& b = j["buffers"][i];
     if (!b.is_object() || b.contains("uri") || !b.contains("extensions") || !b["extensions"].is_object()) continue;
     const json& ext = b["extensions"].value("EXT_meshopt_compression", json());
-    // value() would throw on a "fallback" that is not a boolean (gltf_fuzz found it).
-    const auto fallback = ext.is_object() ? ext.find("fallback") : ext.end();
-    if (!ext.is_object() || fallback == ext.end() || !fallback->is_boolean() || !fallback->get<bool>() ||
-        !b.contains("byteLength") ||
+    // Only a boolean true is a fallback: value<bool>() threw on a number (gltf_fuzz found it).
+    if (!ext.is_object() || ext.value("fallback", json()) != json(true) || !b.contains("byteLength") ||
         !b["byteLength"].is_number_unsigned()) {
       continue;
     }
