@@ -132,13 +132,28 @@ const std::vector<std::string>& SearchSpace::KnobNames() {
 
 SearchSpace SearchSpace::FitKnobs(const LayoutParams& start) {
   SearchSpace space;
+  const bool mixture = start.scale.mixture && start.scale.buckets.size() >= 2;
   // In order of how directly each moves a metric (scale shares, count, occlusion, then the
   // camera): Sbplx works through the dimensions in this order at first.
   for (std::string_view name : {"objects.scale.range_m", "objects.scale.p", "objects.attempts", "placement.occlude_prob",
-                                "placement.cluster_margin_m", "placement.depth_by_size_prob", "camera.ring_m",
-                                "camera.height_m"}) {
-    if (name == "objects.scale.p" && !(start.scale.mixture && start.scale.buckets.size() >= 2)) continue;
-    space.knobs_.push_back(DefaultKnob(*FindKnob(name), start));
+                                "placement.cluster_margin_m", "camera.ring_m", "camera.height_m"}) {
+    if (name == "objects.scale.p" && !mixture) continue;
+    FreeKnob k = DefaultKnob(*FindKnob(name), start);
+    // Intervals move whole and a mixture's ranges together: four metrics (the shares sum
+    // to one) need few dimensions, and each dimension costs two evaluations per Jacobian.
+    // depth_by_size_prob acts only through occlude_prob, which is free. The 16 dimensions
+    // of every bound freed alone met one Table-1 row of six in a minute; these 7 or 8 met
+    // more-objects, which the 16 missed in 150 s (README, "Table 1 on the embedded
+    // procedural assets").
+    if (name == "objects.attempts") {
+      k = {k.name, Transform::kShift, {1, 50}};
+    } else if (name == "camera.ring_m") {
+      k = {k.name, Transform::kShift, {1, 5.5}};
+    } else if (name == "objects.scale.range_m" && mixture) {
+      const double top = start.scale.buckets.back().size_m.hi;
+      k = {k.name, Transform::kScale, {0.5 * top, 2 * top}};
+    }
+    space.knobs_.push_back(std::move(k));
   }
   return space;
 }

@@ -103,9 +103,22 @@ TEST(SearchSpace, FitKnobsFollowTheMethod) {
   std::vector<std::string> knobs;
   for (const FreeKnob& k : space.knobs()) knobs.push_back(k.name);
   EXPECT_THAT(knobs, ::testing::UnorderedElementsAre("objects.attempts", "placement.occlude_prob",
-                                                     "placement.cluster_margin_m", "placement.depth_by_size_prob",
-                                                     "camera.ring_m", "camera.height_m", "objects.scale.p",
-                                                     "objects.scale.range_m"));
+                                                     "placement.cluster_margin_m", "camera.ring_m", "camera.height_m",
+                                                     "objects.scale.p", "objects.scale.range_m"));
+  // Intervals move whole, a mixture's ranges together: one dimension each.
+  Result<std::vector<Dimension>> dims = space.Dimensions(start);
+  ASSERT_OK(dims.status());
+  std::vector<std::string> names;
+  for (const Dimension& d : *dims) names.push_back(d.name);
+  EXPECT_THAT(names, ::testing::UnorderedElementsAre("objects.attempts.shift", "placement.occlude_prob",
+                                                     "placement.cluster_margin_m", "camera.ring_m.shift",
+                                                     "camera.height_m.hi", "objects.scale.p[0]", "objects.scale.p[1]",
+                                                     "objects.scale.range_m.top"));
+  // A uniform law keeps its range's two ends apart: they set the small and the large share.
+  Result<std::vector<Dimension>> uniform = SearchSpace::FitKnobs(Preset("random-placement")).Dimensions(Preset("random-placement"));
+  ASSERT_OK(uniform.status());
+  EXPECT_EQ(uniform->size(), 7u);
+  ASSERT_OK(space.Free("placement.depth_by_size_prob", start));
   ASSERT_OK(space.Fix("objects.scale.range_m"));
   ASSERT_OK(space.Free("placement.cluster_prob", start));
   EXPECT_FALSE(space.Free("placement.nope", start).ok());

@@ -9,7 +9,7 @@
 // the pixel-count ratio; see MetricsAccumulator). The objective is
 // sum_i ((metric_i - target_i) / tolerance_i)^2. Common seeds are the layout indices
 // [0, layouts); each round's best point is re-measured at the output resolution on a
-// disjoint index range starting at kConfirmFirst, and pilots start at kPilotFirst.
+// disjoint index range of its own from kConfirmFirst on, and pilots start at kPilotFirst.
 //
 // Thread safety: Optimize and Evaluate use `jobs` threads and may run concurrently on
 // one AssetLibrary.
@@ -36,6 +36,8 @@
 namespace solid::optimizer {
 
 inline constexpr int64_t kConfirmFirst = int64_t{1} << 40;
+// Round r confirms on layouts from kConfirmFirst + r * kConfirmRoundStride.
+inline constexpr int64_t kConfirmRoundStride = int64_t{1} << 32;
 inline constexpr int64_t kPilotFirst = int64_t{1} << 41;
 
 enum class Metric { kObjectsPerImage, kOcclusion, kSmall, kMedium, kLarge };
@@ -112,9 +114,9 @@ struct OptimizeOptions {
   SearchSpace space;
   std::vector<Target> targets;
   // Local algorithm. "gauss-newton" (default): a trust-region Gauss-Newton search on the
-  // residuals (metric - target) / tolerance, with forward-difference Jacobians (one
-  // evaluation per free dimension, steps of 0.1-0.15 of each dimension's bounds, well
-  // above the noise the common seeds leave), Broyden updates between them, and each step's
+  // residuals (metric - target) / tolerance, with central-difference Jacobians (two
+  // evaluations per free dimension, one where a bound leaves no room, steps of 0.1-0.15 of
+  // each dimension's bounds, well above the noise the common seeds leave), Broyden updates between them, and each step's
   // bounded linear least-squares problem solved by NLopt's SLSQP. Or an NLopt
   // derivative-free method on the objective: "sbplx", "neldermead", "bobyqa", "cobyla",
   // "praxis".
@@ -141,8 +143,11 @@ struct OptimizeOptions {
   // The search stops once every target is within this share of its tolerance on the common
   // seeds, leaving the rest of the tolerance to sampling error.
   double search_margin = 0.5;
-  // When the fresh-seed confirmation misses a target, the search resumes from the best point
-  // with twice the layouts and half the step, at most this many rounds in all.
+  // When the fresh-seed confirmation misses a target, or meets it outside search_margin
+  // while the budget has room for a round like the last, the search resumes from the best
+  // point with twice the layouts and half the step, at most this many rounds in all. The
+  // report gives the last round's point, or the latest that met every target when the
+  // last one missed.
   int max_rounds = 3;
   std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
   // Stops the search (solid/formats/cancel.h): the evaluation in flight is dropped, and

@@ -49,10 +49,12 @@ class SearchSpace {
  public:
   SearchSpace() = default;
 
-  // The fit knobs of solid-method.md 4.3 with their default bounds for `start`: attempts,
-  // occlude_prob, cluster_margin_m, depth_by_size_prob, camera ring, the upper camera height
-  // (within half to one and a half times the start's, and inside the room: the row's
-  // regime), the bucket probabilities of a mixture and every bucket's size range.
+  // The fit knobs of solid-method.md 4.3 with their default bounds for `start`: attempts
+  // and the camera ring shifted whole, occlude_prob, cluster_margin_m,
+  // the upper camera height (within half to one and a half times the start's, and inside
+  // the room: the row's regime), and the scale law: a mixture's bucket probabilities with
+  // its ranges scaled together, or a uniform law's range: seven or eight dimensions
+  // (depth_by_size_prob acts only through occlude_prob; Free adds it).
   static SearchSpace FitKnobs(const render::LayoutParams& start);
 
   // Parses a search-space document. Unknown keys, wrong types and inconsistent bounds are
