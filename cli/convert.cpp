@@ -146,6 +146,11 @@ Command AddConvert(CLI::App& app) {
                   "flat: every .obj, key = path without extension; gso: <name>/meshes/model.obj; "
                   "ycb: <name>/google_16k/textured.obj (default: flat)")
       ->transform(CLI::CheckedTransformer(obj_layouts));
+  const std::map<std::string, convert::UpAxis> up_axes = {{"y", convert::UpAxis::kY}, {"z", convert::UpAxis::kZ}};
+  obj->add_option("--up", f->options.obj_up,
+                  "The OBJs' up axis, y or z; a +Z-up model is turned to +Y up (default: z for gso and ycb, "
+                  "whose scans were made for Gazebo's +Z-up world; y for flat)")
+      ->transform(CLI::CheckedTransformer(up_axes));
   AddCommonFlags(obj, f.get());
   return [f, shapenet, scenenet, gltf, obj] {
     f->options.source = shapenet->parsed()   ? convert::Source::kShapeNet

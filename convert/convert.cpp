@@ -293,13 +293,22 @@ bool SafePathComponent(const std::string& name) {
          name.find('\\') == std::string::npos;
 }
 
+bool ObjZUp(const ConvertOptions& o) {
+  if (o.obj_up != UpAxis::kLayoutDefault) return o.obj_up == UpAxis::kZ;
+  return o.obj_layout != ObjLayout::kFlat;
+}
+
 json OptionsIdentity(const ConvertOptions& o) {
-  return {{"position_bits", o.draco.position_bits},
-          {"normal_bits", o.draco.normal_bits},
-          {"texcoord_bits", o.draco.texcoord_bits},
-          {"compression_level", o.draco.compression_level},
-          {"keep_all_room_objects", o.keep_all_room_objects},
-          {"texture_library", o.texture_library}};
+  json identity = {{"position_bits", o.draco.position_bits},
+                   {"normal_bits", o.draco.normal_bits},
+                   {"texcoord_bits", o.draco.texcoord_bits},
+                   {"compression_level", o.draco.compression_level},
+                   {"keep_all_room_objects", o.keep_all_room_objects},
+                   {"texture_library", o.texture_library}};
+  // Only where it turns the model, so that no catalog written before the axis was an
+  // option converts again.
+  if (o.source == Source::kObj && ObjZUp(o)) identity["obj_up"] = "z";
+  return identity;
 }
 
 // Temporaries that killed writers left in the assets directory (a killed convert leaves
@@ -900,8 +909,23 @@ std::variant<Converted, AssetFailure> ConvertGltfModel(const fs::path& file, con
   return c;
 }
 
+// A +Z-up frame to glTF's +Y up: y' = z, z' = -y (a quarter turn about x).
+void RotateZUpToYUp(Asset* asset) {
+  for (Node& node : asset->nodes) {
+    for (Primitive& p : node.primitives) {
+      for (std::vector<float>* v : {&p.positions, &p.normals}) {
+        for (size_t i = 0; i + 2 < v->size(); i += 3) {
+          const float y = (*v)[i + 1], z = (*v)[i + 2];
+          (*v)[i + 1] = z;
+          (*v)[i + 2] = -y;
+        }
+      }
+    }
+  }
+}
+
 std::variant<Converted, AssetFailure> ConvertObjModel(const fs::path& obj_path, const fs::path& confine_root,
-                                                      const std::string& key, bool metres) {
+                                                      const std::string& key, bool metres, bool z_up) {
   std::error_code ec;
   if (!fs::is_regular_file(obj_path, ec)) {
     return AssetFailure{"missing_obj", fmt::format("{}: not found", obj_path.string())};
@@ -919,10 +943,14 @@ std::variant<Converted, AssetFailure> ConvertObjModel(const fs::path& obj_path, 
   c.asset = std::move(built->asset);
   c.warnings.insert(c.warnings.end(), built->warnings.begin(), built->warnings.end());
   c.counts = CountsJson(built->counts, loaded.obj);
+  if (z_up) RotateZUpToYUp(&c.asset);
+  // GSO and YCB scans are in metres; a flat folder's OBJ units are unknown. The extent is
+  // along the asset's axes (after any turn to +Y up).
   const std::array<double, 3> extent = NormalizeAsShapeNetV2(&c.asset);
-  // GSO and YCB scans are in metres; a flat folder's OBJ units are unknown.
   const char* extent_key = metres ? "source_extent_m" : "source_extent";
-  c.asset.extras["source_frame"] = fmt::format("obj{}, {}", metres ? ": metres" : "", kNormalisedFrame);
+  c.asset.extras["source_frame"] =
+      fmt::format("obj{}{}, {}", metres ? ": metres" : "", z_up ? ", +Z up turned to +Y up (y' = z, z' = -y)" : "",
+                  kNormalisedFrame);
   c.asset.extras[extent_key] = extent;
   c.extras = {{extent_key, extent}};
   return c;
@@ -990,6 +1018,7 @@ Result<ConvertReport> ConvertObjFolder(const fs::path& root, const fs::path& out
                                        const ConvertOptions& options) {
   std::error_code ec;
   if (!fs::is_directory(root, ec)) return NotFoundError(root.string() + ": not a directory");
+  const bool z_up = ObjZUp(options);
   std::vector<Job> jobs;
   std::set<std::string> keys;
   if (layout == ObjLayout::kFlat) {
@@ -1002,7 +1031,7 @@ Result<ConvertReport> ConvertObjFolder(const fs::path& root, const fs::path& out
       if (fs::path mtl = fs::path(obj).replace_extension(".mtl"); fs::is_regular_file(mtl, ec)) job.inputs.push_back(mtl);
       const std::string key = job.key;
       const fs::path dir = obj.parent_path();
-      job.convert = [obj, dir, key] { return ConvertObjModel(obj, dir, key, /*metres=*/false); };
+      job.convert = [obj, dir, key, z_up] { return ConvertObjModel(obj, dir, key, /*metres=*/false, z_up); };
       AddModelJob(&jobs, &keys, std::move(job), obj);
     }
   } else {
@@ -1020,7 +1049,7 @@ Result<ConvertReport> ConvertObjFolder(const fs::path& root, const fs::path& out
       job.inputs = ModelInputFiles(model_dir);
       const fs::path obj = model_dir / mesh;
       const std::string key = job.key;
-      job.convert = [obj, model_dir, key] { return ConvertObjModel(obj, model_dir, key, /*metres=*/true); };
+      job.convert = [obj, model_dir, key, z_up] { return ConvertObjModel(obj, model_dir, key, /*metres=*/true, z_up); };
       AddModelJob(&jobs, &keys, std::move(job), model_dir);
     }
   }

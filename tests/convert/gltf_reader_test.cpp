@@ -629,7 +629,60 @@ TEST(ConvertObjFolder, GsoAndYcbLayoutsFindTheirMeshesAndTextures) {
   auto yrows = Rows(dir.path() / "out_ycb");
   ASSERT_EQ(yrows.size(), 1u);
   EXPECT_EQ(yrows["003_cracker_box"].textures, 1);
-  EXPECT_EQ(yrows["003_cracker_box"].extras["source_extent_m"], json({1.0, 1.0, 0.0}));
+  // The scans are +Z up: the triangle in the OBJ's x-y plane stands in the asset's x-z plane.
+  EXPECT_EQ(yrows["003_cracker_box"].extras["source_extent_m"], json({1.0, 0.0, 1.0}));
+  EXPECT_EQ(y->up_to_date, 0);
+
+  // Another up axis is another conversion; the same one again is up to date.
+  ConvertOptions y_up;
+  y_up.obj_up = UpAxis::kY;
+  auto again = ConvertObjFolder(ycb, dir.path() / "out_ycb", ObjLayout::kYcb, y_up);
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  EXPECT_EQ(again->up_to_date, 0);
+  EXPECT_EQ(Rows(dir.path() / "out_ycb")["003_cracker_box"].extras["source_extent_m"], json({1.0, 1.0, 0.0}));
+  again = ConvertObjFolder(ycb, dir.path() / "out_ycb", ObjLayout::kYcb, y_up);
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  EXPECT_EQ(again->up_to_date, 1);
+}
+
+// A +Z-up OBJ of a flat folder, told so, is turned to +Y up before normalisation: a post
+// 3 units tall along z stands along y, and its triangles keep their outward winding.
+TEST(ConvertObjFolder, ZUpModelsAreTurnedToYUp) {
+  TempDir dir;
+  std::string obj;
+  for (int k = 0; k < 8; ++k) obj += fmt::format("v {} {} {}\n", k & 1, (k >> 1) & 1, 3 * (k >> 2));
+  for (const char* face : {"1 3 4 2", "5 6 8 7", "1 2 6 5", "3 7 8 4", "1 5 7 3", "2 4 8 6"}) {
+    obj += fmt::format("f {}\n", face);
+  }
+  fs::create_directories(dir.path() / "in");
+  ASSERT_OK(files::WriteFileAtomically(dir.path() / "in" / "post.obj", std::vector<uint8_t>(obj.begin(), obj.end())));
+  ConvertOptions z_up;
+  z_up.obj_up = UpAxis::kZ;
+  auto r = ConvertObjFolder(dir.path() / "in", dir.path() / "out", ObjLayout::kFlat, z_up);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_EQ(r->ok + r->ok_with_warnings, 1) << Rows(dir.path() / "out")["post"].error.value_or("");
+  EXPECT_EQ(Rows(dir.path() / "out")["post"].extras["source_extent"], json({1.0, 3.0, 1.0}));
+  const gltf::Asset asset = ReadOutput(dir.path() / "out" / "models" / "post.glb");
+  // Every face normal points away from the centre (the mean of the vertices, the origin).
+  size_t faces = 0;
+  for (const gltf::Node& node : asset.nodes) {
+    for (const gltf::Primitive& p : node.primitives) {
+      for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+        float c[3][3];
+        for (int v = 0; v < 3; ++v) {
+          for (int a = 0; a < 3; ++a) c[v][a] = p.positions[3 * p.indices[t + v] + a];
+        }
+        const float e1[3] = {c[1][0] - c[0][0], c[1][1] - c[0][1], c[1][2] - c[0][2]};
+        const float e2[3] = {c[2][0] - c[0][0], c[2][1] - c[0][1], c[2][2] - c[0][2]};
+        const float n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        const float mid[3] = {(c[0][0] + c[1][0] + c[2][0]) / 3, (c[0][1] + c[1][1] + c[2][1]) / 3,
+                              (c[0][2] + c[1][2] + c[2][2]) / 3};
+        EXPECT_GT(n[0] * mid[0] + n[1] * mid[1] + n[2] * mid[2], 0) << "triangle " << t / 3;
+        ++faces;
+      }
+    }
+  }
+  EXPECT_EQ(faces, 12u);
 }
 
 // A command of tests/gltf_transform's npm packages, or empty when they or node are missing.

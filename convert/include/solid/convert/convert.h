@@ -66,6 +66,10 @@ enum class GltfLayout { kFlat, kObjaverse };
 // OBJ's folder; kGso: <name>/meshes/model.obj; kYcb: <name>/google_16k/textured.obj (key
 // <name>, textures confined to <name>/, extent in metres).
 enum class ObjLayout { kFlat, kGso, kYcb };
+// kObj: the OBJ's up axis. kLayoutDefault is +Z for kGso and kYcb (Google's scans, made for
+// Gazebo, whose world is +Z up) and +Y for kFlat; a +Z-up model is turned to +Y up
+// (y' = z, z' = -y) before it is normalised as ShapeNet v2.
+enum class UpAxis { kLayoutDefault, kY, kZ };
 
 struct ProceduralSet {
   int models = 64;
@@ -81,6 +85,7 @@ struct ConvertOptions {
   ProceduralSet procedural;    // kProcedural
   GltfLayout gltf_layout = GltfLayout::kFlat;  // kGltf
   ObjLayout obj_layout = ObjLayout::kFlat;     // kObj
+  UpAxis obj_up = UpAxis::kLayoutDefault;      // kObj
   int jobs = 0;                      // 0: all cores
   int64_t limit = -1;                // convert at most this many assets (after filtering); -1: all
   std::vector<std::string> synsets;  // ShapeNet: only these synset folders (empty: all)
