@@ -141,10 +141,9 @@ SearchSpace SearchSpace::FitKnobs(const LayoutParams& start) {
     FreeKnob k = DefaultKnob(*FindKnob(name), start);
     // Intervals move whole and a mixture's ranges together: four metrics (the shares sum
     // to one) need few dimensions, and each dimension costs two evaluations per Jacobian.
-    // depth_by_size_prob acts only through occlude_prob, which is free. The 16 dimensions
-    // of every bound freed alone met one Table-1 row of six in a minute; these 7 or 8 met
-    // more-objects, which the 16 missed in 150 s (README, "Table 1 on the embedded
-    // procedural assets").
+    // depth_by_size_prob acts only through occlude_prob, which is free. With every bound
+    // freed alone (16 dimensions) one Table-1 row of six fitted within a minute; with
+    // these 7 or 8 five do (README, "Table 1 on the embedded procedural assets").
     if (name == "objects.attempts") {
       k = {k.name, Transform::kShift, {1, 50}};
     } else if (name == "camera.ring_m") {

@@ -116,10 +116,10 @@ struct OptimizeOptions {
   // Local algorithm. "gauss-newton" (default): a trust-region Gauss-Newton search on the
   // residuals (metric - target) / tolerance, with central-difference Jacobians (two
   // evaluations per free dimension, one where a bound leaves no room, steps of 0.1-0.15 of
-  // each dimension's bounds, well above the noise the common seeds leave), Broyden updates between them, and each step's
-  // bounded linear least-squares problem solved by NLopt's SLSQP. Or an NLopt
-  // derivative-free method on the objective: "sbplx", "neldermead", "bobyqa", "cobyla",
-  // "praxis".
+  // each dimension's bounds, well above the noise the common seeds leave), Broyden
+  // updates between them, and each step's bounded linear least-squares problem solved by
+  // NLopt's SLSQP. Or an NLopt derivative-free method on the objective: "sbplx",
+  // "neldermead", "bobyqa", "cobyla", "praxis".
   std::string algorithm = "gauss-newton";
   // Optional global phase first: "crs2", "isres", "esch", "direct"; it gets
   // global_evaluations (0: a third of max_evaluations).
