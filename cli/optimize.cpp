@@ -184,7 +184,7 @@ Command AddOptimize(CLI::App& app) {
   auto* params = cmd->add_option("--params", fit.params, "Start from this params file");
   preset->excludes(params);
   params->excludes(preset);
-  cmd->add_option("--space", fit.space, "Search-space file (schemas/search-space.schema.json); default: the fit knobs");
+  cmd->add_option("--space", fit.space, "Search-space file (schemas/search-space.schema.json); default: the fit knobs of solid-method 4.3 in 7 or 8 dimensions (README)");
   cmd->add_option("--free", fit.free, "Also free these knobs (comma-separated, default bounds)")->delimiter(',');
   cmd->add_option("--fix", fit.fix, "Fix these knobs at the start's value (comma-separated)")->delimiter(',');
   cmd->add_option("--assets", fit.assets, "Assets directory with the models")->required();
@@ -219,9 +219,9 @@ Command AddOptimize(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--max-evals", o.max_evaluations, "Evaluation budget")->capture_default_str();
   cmd->add_option("--max-seconds", o.max_seconds, "Time budget of the search and its confirmation (the pilot comes on top)")->capture_default_str();
-  cmd->add_option("--margin", o.search_margin, "Stop the search within this share of each tolerance")
+  cmd->add_option("--margin", o.search_margin, "Stop the search within this share of each tolerance on the common layouts; a confirmation outside it gets another round while the budget has room")
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
-  cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (a missed confirmation starts another)")
+  cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (a missed confirmation, or one outside --margin with time left, starts another)")
       ->capture_default_str()->check(CLI::Range(1, 10));
   AddSeedOption(cmd, &o.seed, "Layout seed");
   AddJobsOption(cmd, &o.jobs, "Layouts in parallel (default: all cores)");
