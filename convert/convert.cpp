@@ -11,6 +11,8 @@
 #include <memory>
 #include <mutex>
 #include <set>
+#include <tuple>
+#include <utility>
 
 #include "obj.h"
 #include "obj_to_asset.h"
@@ -184,19 +186,22 @@ json CountsJson(const CleanCounts& c, const ObjData& obj) {
           {"unknown_records", obj.counts.unknown_records}};
 }
 
-// ShapeNet v1 frame (up +Y, front +X) to v2's (up +Y, front -Z): x' = z, z' = -x.
-void RotateV1ToV2(Asset* asset) {
+// Applies `turn` (a rotation, so winding and normals stay valid) to every position and
+// normal of `asset`, each as its x, y, z.
+template <typename Turn>
+void RotateAsset(Asset* asset, Turn turn) {
   for (Node& node : asset->nodes) {
     for (Primitive& p : node.primitives) {
       for (std::vector<float>* v : {&p.positions, &p.normals}) {
-        for (size_t i = 0; i + 2 < v->size(); i += 3) {
-          float x = (*v)[i], z = (*v)[i + 2];
-          (*v)[i] = z;
-          (*v)[i + 2] = -x;
-        }
+        for (size_t i = 0; i + 2 < v->size(); i += 3) turn((*v)[i], (*v)[i + 1], (*v)[i + 2]);
       }
     }
   }
+}
+
+// ShapeNet v1 frame (up +Y, front +X) to v2's (up +Y, front -Z): x' = z, z' = -x.
+void RotateV1ToV2(Asset* asset) {
+  RotateAsset(asset, [](float& x, float&, float& z) { std::tie(x, z) = std::pair{z, -x}; });
 }
 
 std::variant<Converted, AssetFailure> ConvertShapeNetModel(const fs::path& model_dir, const fs::path& obj_path,
@@ -911,17 +916,7 @@ std::variant<Converted, AssetFailure> ConvertGltfModel(const fs::path& file, con
 
 // A +Z-up frame to glTF's +Y up: y' = z, z' = -y (a quarter turn about x).
 void RotateZUpToYUp(Asset* asset) {
-  for (Node& node : asset->nodes) {
-    for (Primitive& p : node.primitives) {
-      for (std::vector<float>* v : {&p.positions, &p.normals}) {
-        for (size_t i = 0; i + 2 < v->size(); i += 3) {
-          const float y = (*v)[i + 1], z = (*v)[i + 2];
-          (*v)[i + 1] = z;
-          (*v)[i + 2] = -y;
-        }
-      }
-    }
-  }
+  RotateAsset(asset, [](float&, float& y, float& z) { std::tie(y, z) = std::pair{z, -y}; });
 }
 
 std::variant<Converted, AssetFailure> ConvertObjModel(const fs::path& obj_path, const fs::path& confine_root,
