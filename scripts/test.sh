@@ -44,6 +44,24 @@ fuzz_work=$(mktemp -d)
 trap 'rm -rf "$fuzz_work"' EXIT
 scripts/fuzz-campaign.sh -b "$fuzz_build" -w "$fuzz_work" -s 4 -t 30
 
-# Last, so that its summary closes the output. The benchmarks are built (so they cannot rot) but never run here: they are slow by design.
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1
+
+# A user's machine has no ../shared: the tests of optional data (label shared-data) must skip
+# there, not fail. Run them against an empty folder first, quietly (their log is printed only
+# when the check fails), so that the full suite's summary closes the output.
+no_shared="$fuzz_work/no-shared"
+mkdir -p "$no_shared"
+SOLID_SHARED_TESTDATA=$no_shared ctest --test-dir "$build" -L shared-data --output-on-failure \
+  -j "$(nproc)" >"$fuzz_work/no-shared.log" 2>&1 || true
+ran=$(grep -cE 'Test +#[0-9]+: ' "$fuzz_work/no-shared.log" || true)
+skipped=$(grep -cE 'Test +#[0-9]+: .*\*\*\*Skipped' "$fuzz_work/no-shared.log" || true)
+echo "test: without the shared data, $skipped of the $ran shared-data tests skipped"
+if [ "$ran" -eq 0 ] || [ "$skipped" -ne "$ran" ]; then
+  cat "$fuzz_work/no-shared.log"
+  echo "test: every shared-data test must skip without the data, and there must be some" >&2
+  exit 1
+fi
+
+# Last, so that its summary closes the output. The benchmarks are built (so they cannot rot)
+# but never run here: they are slow by design.
 ctest --test-dir "$build" --output-on-failure -j "$(nproc)"
