@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -104,6 +105,8 @@ class Placer {
       }
     }
     k_max_ = std::min(k_max_, n - 1);
+    axis_range_ = IndexRange(static_cast<uint64_t>(n));
+    height_range_ = IndexRange(static_cast<uint64_t>(k_max_) + 1);
   }
 
   // One pose try: a centre for a box of `half` extents and `rotation`, or false. The
@@ -111,38 +114,33 @@ class Placer {
   bool TryPlace(const Mat3& rotation, Vec3 half, double size_m, bool cluster, bool occlude, bool depth_by_size,
                 const std::vector<PlacedObject>& placed, Rng& rng, Vec3* centre, int64_t* proposals) {
     const int n = room_.points();
-    // Cluster balls and the lattice cubes (squares for floor support) around them.
-    struct Ball {
-      Vec3 c;
-      double r;
-      int i0, i1, j0, j1, k0, k1;
-      uint64_t count;
-    };
-    std::vector<Ball> balls;
-    uint64_t total = 0;
     const bool floor = p_.support == Support::kFloor;
+    // Cluster balls and the lattice cubes (squares for floor support) around them.
+    cubes_.Clear();
+    uint64_t total = 0;
     if (cluster) {
       for (const PlacedObject& o : placed) {
-        Ball b{o.box.center, o.box.HalfDiagonal() + p_.cluster_margin_m, 0, 0, 0, 0, 0, 0, 0};
-        auto range = [&](double c, double origin, double step, int* lo, int* hi) {
-          *lo = std::max(0, static_cast<int>(std::ceil((c - b.r - origin) / step)));
-          *hi = std::min(n - 1, static_cast<int>(std::floor((c + b.r - origin) / step)));
+        const Vec3 c = o.box.center;
+        const double r = o.box.HalfDiagonal() + p_.cluster_margin_m;
+        int lo[3], hi[3];
+        auto range = [&](double x, double origin, double step, int axis) {
+          lo[axis] = std::max(0, static_cast<int>(std::ceil((x - r - origin) / step)));
+          hi[axis] = std::min(n - 1, static_cast<int>(std::floor((x + r - origin) / step)));
         };
-        range(b.c.x, room_.X(0), room_.X(1) - room_.X(0), &b.i0, &b.i1);
-        range(b.c.y, room_.Y(0), room_.Y(1) - room_.Y(0), &b.j0, &b.j1);
+        range(c.x, room_.X(0), room_.X(1) - room_.X(0), 0);
+        range(c.y, room_.Y(0), room_.Y(1) - room_.Y(0), 1);
         if (floor) {
-          b.k0 = b.k1 = 0;
+          lo[2] = hi[2] = 0;
         } else {
-          range(b.c.z, 0, room_.Z(1), &b.k0, &b.k1);
-          b.k1 = std::min(b.k1, k_max_);
+          range(c.z, 0, room_.Z(1), 2);
+          hi[2] = std::min(hi[2], k_max_);
         }
-        if (b.i0 > b.i1 || b.j0 > b.j1 || b.k0 > b.k1) continue;
-        b.count = uint64_t(b.i1 - b.i0 + 1) * uint64_t(b.j1 - b.j0 + 1) * uint64_t(b.k1 - b.k0 + 1);
-        total += b.count;
-        balls.push_back(b);
+        if (lo[0] > hi[0] || lo[1] > hi[1] || lo[2] > hi[2]) continue;
+        total += cubes_.Add(c, r, lo, hi);
       }
-      if (balls.empty()) return false;
+      if (cubes_.size() == 0) return false;
     }
+    const IndexRange total_range(cluster ? total : 1);
     const double zhalf = std::fabs(rotation(2, 0)) * half.x + std::fabs(rotation(2, 1)) * half.y +
                          std::fabs(rotation(2, 2)) * half.z;
     if (occlude) ProjectPlaced(placed);
@@ -152,22 +150,18 @@ class Placer {
       if (cluster) {
         // Uniform over the union of the cubes: pick a cube by its size, a point in it,
         // and keep the point with probability 1 / (cubes containing it).
-        uint64_t pick = rng.Index(total);
+        uint64_t pick = rng.Index(total_range);
         size_t b = 0;
-        while (pick >= balls[b].count) pick -= balls[b++].count;
-        const Ball& ball = balls[b];
-        i = ball.i0 + static_cast<int>(rng.Index(ball.i1 - ball.i0 + 1));
-        j = ball.j0 + static_cast<int>(rng.Index(ball.j1 - ball.j0 + 1));
-        k = ball.k0 + static_cast<int>(rng.Index(ball.k1 - ball.k0 + 1));
-        int containing = 0;
-        for (const Ball& o : balls) {
-          containing += i >= o.i0 && i <= o.i1 && j >= o.j0 && j <= o.j1 && k >= o.k0 && k <= o.k1;
-        }
+        while (pick >= cubes_.count[b]) pick -= cubes_.count[b++];
+        i = cubes_.lo[0][b] + static_cast<int>(rng.Index(cubes_.extent[0][b]));
+        j = cubes_.lo[1][b] + static_cast<int>(rng.Index(cubes_.extent[1][b]));
+        k = cubes_.lo[2][b] + static_cast<int>(rng.Index(cubes_.extent[2][b]));
+        const int containing = cubes_.Containing(i, j, k);
         if (containing > 1 && !rng.Chance(1.0 / containing)) continue;
       } else {
-        i = static_cast<int>(rng.Index(n));
-        j = static_cast<int>(rng.Index(n));
-        k = floor ? 0 : static_cast<int>(rng.Index(k_max_ + 1));
+        i = static_cast<int>(rng.Index(axis_range_));
+        j = static_cast<int>(rng.Index(axis_range_));
+        k = floor ? 0 : static_cast<int>(rng.Index(height_range_));
       }
       if (!room_.Covered(i, j)) continue;
       Vec3 c{room_.X(i), room_.Y(j), floor ? room_.FloorZ(i, j) + zhalf + kFloorGap : room_.Z(k)};
@@ -179,7 +173,7 @@ class Placer {
         continue;
       }
       if (!(std::hypot(c.x - eye_.x, c.y - eye_.y) > p_.min_hdist_m)) continue;
-      if (cluster && !NearSome(c, balls)) continue;
+      if (cluster && !cubes_.NearSome(c)) continue;
       if (occlude && !Occludes(c, u, v, placed)) continue;
       if (depth_by_size && !InDepthBand(c, size_m, placed)) continue;
       const Obb box{c, rotation, half};
@@ -199,13 +193,56 @@ class Placer {
   }
 
  private:
-  template <typename Balls>
-  static bool NearSome(Vec3 c, const Balls& balls) {
-    for (const auto& b : balls) {
-      if (Length(c - b.c) < b.r) return true;
+  // The cluster balls of a pose try and their lattice cubes, as arrays: every proposal
+  // counts the cubes that contain it, a loop the compiler vectorizes over these.
+  struct Cubes {
+    std::vector<Vec3> centre;
+    std::vector<double> radius;
+    std::array<std::vector<int>, 3> lo, hi;
+    std::array<std::vector<IndexRange>, 3> extent;
+    std::vector<uint64_t> count;
+
+    size_t size() const { return count.size(); }
+    void Clear() {
+      centre.clear();
+      radius.clear();
+      count.clear();
+      for (int a = 0; a < 3; ++a) {
+        lo[a].clear();
+        hi[a].clear();
+        extent[a].clear();
+      }
     }
-    return false;
-  }
+    uint64_t Add(Vec3 c, double r, const int* low, const int* high) {
+      centre.push_back(c);
+      radius.push_back(r);
+      uint64_t cells = 1;
+      for (int a = 0; a < 3; ++a) {
+        lo[a].push_back(low[a]);
+        hi[a].push_back(high[a]);
+        extent[a].emplace_back(static_cast<uint64_t>(high[a] - low[a] + 1));
+        cells *= static_cast<uint64_t>(high[a] - low[a] + 1);
+      }
+      count.push_back(cells);
+      return cells;
+    }
+    int Containing(int i, int j, int k) const {
+      int containing = 0;
+      const size_t m = size();
+      const int *i0 = lo[0].data(), *i1 = hi[0].data(), *j0 = lo[1].data(), *j1 = hi[1].data(),
+                *k0 = lo[2].data(), *k1 = hi[2].data();
+      for (size_t o = 0; o < m; ++o) {
+        containing += (i >= i0[o]) & (i <= i1[o]) & (j >= j0[o]) & (j <= j1[o]) & (k >= k0[o]) & (k <= k1[o]);
+      }
+      return containing;
+    }
+    bool NearSome(Vec3 c) const {
+      for (size_t b = 0; b < size(); ++b) {
+        if (Length(c - centre[b]) < radius[b]) return true;
+      }
+      return false;
+    }
+  };
 
   // The image box of each placed object whose corners all lie beyond the near plane, once
   // per pose try: the occlusion tests of its thousands of proposals then skip most objects
@@ -294,7 +331,9 @@ class Placer {
   const Camera& camera_;
   Vec3 eye_;
   int k_max_ = 0;
-  std::vector<ImageBox> image_boxes_;  // of `placed`, for the pose try in progress
+  IndexRange axis_range_{1}, height_range_{1};  // lattice indices along x or y, and of heights up to k_max_
+  Cubes cubes_;                           // of the pose try in progress
+  std::vector<ImageBox> image_boxes_;     // of `placed`, for the pose try in progress
 };
 
 // Camera draws (solid-method.md 2.3, D9): a floor-covered lattice column in the ring,

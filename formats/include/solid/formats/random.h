@@ -17,6 +17,13 @@ inline uint64_t SplitMix64(uint64_t x) {
 // A seed derived from two others, e.g. (dataset seed, image index).
 inline uint64_t MixSeed(uint64_t a, uint64_t b) { return SplitMix64(a ^ SplitMix64(b)); }
 
+// [0, n) for Rng::Index drawn many times (a placement try's thousands of proposals):
+// the rejection threshold costs a 64-bit division, computed here once.
+struct IndexRange {
+  explicit IndexRange(uint64_t size) : n(size), threshold((uint64_t{0} - size) % size) {}
+  uint64_t n, threshold;
+};
+
 // PCG32 (O'Neill), one independent sequence per stream.
 class Rng {
  public:
@@ -40,11 +47,11 @@ class Rng {
     return lo + static_cast<int>(Next() % static_cast<uint32_t>(hi_inclusive - lo + 1));
   }
   // Uniform in [0, n) without modulo bias (Lemire's method), for large sets.
-  uint64_t Index(uint64_t n) {
-    const uint64_t threshold = (uint64_t{0} - n) % n;
+  uint64_t Index(uint64_t n) { return Index(IndexRange(n)); }
+  uint64_t Index(const IndexRange& range) {
     for (;;) {
       const uint64_t r = (uint64_t{Next()} << 32) | Next();
-      if (r >= threshold) return r % n;
+      if (r >= range.threshold) return r % range.n;
     }
   }
   bool Chance(double p) { return Uniform() < p; }
