@@ -340,14 +340,7 @@ class Placer {
 // a height above that column's floor, a look-at point, and in rooms a clearance test.
 bool SampleCamera(const LayoutParams& p, const RoomShell& room, bool test_walls, Rng& rng, Camera* camera,
                   int* draws) {
-  std::vector<std::pair<int, int>> ring;
-  const int n = room.points();
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      const double r = std::hypot(room.X(i), room.Y(j));
-      if (room.Covered(i, j) && r >= p.camera_ring_m.lo && r <= p.camera_ring_m.hi) ring.emplace_back(i, j);
-    }
-  }
+  const std::vector<std::pair<int, int>>& ring = room.CameraColumns();
   if (ring.empty()) return false;
   RTCScene walls = reinterpret_cast<RTCScene>(room.walls_scene());
   for (*draws = 1; *draws <= p.camera_max_draws; ++*draws) {

@@ -251,6 +251,14 @@ Status RoomShell::Finish(const std::shared_ptr<Device>& device, const LayoutPara
   for (double& c : ceiling_z_) {
     if (c != c) c = top;
   }
+  for (int j = 0; j < n_; ++j) {
+    for (int i = 0; i < n_; ++i) {
+      const double r = std::hypot(X(i), Y(j));
+      if (Covered(i, j) && r >= params.camera_ring_m.lo && r <= params.camera_ring_m.hi) {
+        camera_columns_.emplace_back(i, j);
+      }
+    }
+  }
 
   // Triangle grid for TouchesShell, over the shell's bounding box.
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};

@@ -10,6 +10,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "solid/render/assets.h"
@@ -46,6 +47,10 @@ class RoomShell {
   bool Covered(int i, int j) const { return floor_z_[Cell(i, j)] == floor_z_[Cell(i, j)]; }  // not NaN
   double FloorZ(int i, int j) const { return floor_z_[Cell(i, j)]; }
   double CeilingZ(int i, int j) const { return ceiling_z_[Cell(i, j)]; }
+  // The covered columns (i, j) whose horizontal distance from the origin lies in
+  // params.camera_ring_m, row by row: where cameras stand (solid-method.md 2.3). Computed
+  // once per shell, not per layout draw.
+  const std::vector<std::pair<int, int>>& CameraColumns() const { return camera_columns_; }
   // The nearest lattice column of (x, y), or false outside the lattice.
   bool ColumnOf(double x, double y, int* i, int* j) const;
 
@@ -74,6 +79,7 @@ class RoomShell {
   double x0_ = 0, y0_ = 0;
   std::array<double, 3> step_ = {0, 0, 0};
   std::vector<double> floor_z_, ceiling_z_;
+  std::vector<std::pair<int, int>> camera_columns_;
   // Uniform grid over the shell's triangles for TouchesShell.
   Vec3 grid_min_;
   double grid_cell_ = 1;
