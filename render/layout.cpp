@@ -96,18 +96,13 @@ namespace {
 class Placer {
  public:
   Placer(const LayoutParams& p, const RoomShell& room, const Camera& camera)
-      : p_(p), room_(room), camera_(camera), eye_(CameraPosition(camera)) {
-    const int n = room.points();
-    k_max_ = 0;
-    for (int j = 0; j < n; ++j) {
-      for (int i = 0; i < n; ++i) {
-        if (room.Covered(i, j)) k_max_ = std::max(k_max_, static_cast<int>(std::floor(room.CeilingZ(i, j) / room.Z(1))));
-      }
-    }
-    k_max_ = std::min(k_max_, n - 1);
-    axis_range_ = IndexRange(static_cast<uint64_t>(n));
-    height_range_ = IndexRange(static_cast<uint64_t>(k_max_) + 1);
-  }
+      : p_(p),
+        room_(room),
+        camera_(camera),
+        eye_(CameraPosition(camera)),
+        k_max_(room.TopLevel()),
+        axis_range_(static_cast<uint64_t>(room.points())),
+        height_range_(static_cast<uint64_t>(k_max_) + 1) {}
 
   // One pose try: a centre for a box of `half` extents and `rotation`, or false. The
   // proposals draw from `rng` alone.
@@ -330,8 +325,8 @@ class Placer {
   const RoomShell& room_;
   const Camera& camera_;
   Vec3 eye_;
-  int k_max_ = 0;
-  IndexRange axis_range_{1}, height_range_{1};  // lattice indices along x or y, and of heights up to k_max_
+  int k_max_;
+  IndexRange axis_range_, height_range_;  // lattice indices along x or y, and of heights up to k_max_
   Cubes cubes_;                           // of the pose try in progress
   std::vector<ImageBox> image_boxes_;     // of `placed`, for the pose try in progress
 };

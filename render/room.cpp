@@ -251,14 +251,17 @@ Status RoomShell::Finish(const std::shared_ptr<Device>& device, const LayoutPara
   for (double& c : ceiling_z_) {
     if (c != c) c = top;
   }
+  // Both computed once per shell rather than per layout draw: they visit every column.
   for (int j = 0; j < n_; ++j) {
     for (int i = 0; i < n_; ++i) {
+      if (Covered(i, j)) top_level_ = std::max(top_level_, static_cast<int>(std::floor(CeilingZ(i, j) / Z(1))));
       const double r = std::hypot(X(i), Y(j));
       if (Covered(i, j) && r >= params.camera_ring_m.lo && r <= params.camera_ring_m.hi) {
         camera_columns_.emplace_back(i, j);
       }
     }
   }
+  top_level_ = std::min(top_level_, n_ - 1);
 
   // Triangle grid for TouchesShell, over the shell's bounding box.
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};

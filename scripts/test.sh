@@ -40,24 +40,24 @@ CC=clang CXX=clang++ cmake -S . -B "$fuzz_build" -G Ninja -DCMAKE_BUILD_TYPE=Rel
   -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" \
   -DSOLID_BUILD_FUZZERS=ON -DSOLID_BUILD_BENCH=OFF >/dev/null
 cmake --build "$fuzz_build" -j "$(nproc)" --target solid_fuzzers
-fuzz_work=$(mktemp -d)
-trap 'rm -rf "$fuzz_work"' EXIT
-scripts/fuzz-campaign.sh -b "$fuzz_build" -w "$fuzz_work" -s 4 -t 30
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+scripts/fuzz-campaign.sh -b "$fuzz_build" -w "$scratch" -s 4 -t 30
 
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1
 
 # A user's machine has no ../shared: the tests of optional data (label shared-data) must skip
 # there, not fail. Run them against an empty folder first, quietly (their log is printed only
 # when the check fails), so that the full suite's summary closes the output.
-no_shared="$fuzz_work/no-shared"
+no_shared="$scratch/no-shared"
 mkdir -p "$no_shared"
 SOLID_SHARED_TESTDATA=$no_shared ctest --test-dir "$build" -L shared-data --output-on-failure \
-  -j "$(nproc)" >"$fuzz_work/no-shared.log" 2>&1 || true
-ran=$(grep -cE 'Test +#[0-9]+: ' "$fuzz_work/no-shared.log" || true)
-skipped=$(grep -cE 'Test +#[0-9]+: .*\*\*\*Skipped' "$fuzz_work/no-shared.log" || true)
+  -j "$(nproc)" >"$scratch/no-shared.log" 2>&1 || true
+ran=$(grep -cE 'Test +#[0-9]+: ' "$scratch/no-shared.log" || true)
+skipped=$(grep -cE 'Test +#[0-9]+: .*\*\*\*Skipped' "$scratch/no-shared.log" || true)
 echo "test: without the shared data, $skipped of the $ran shared-data tests skipped"
 if [ "$ran" -eq 0 ] || [ "$skipped" -ne "$ran" ]; then
-  cat "$fuzz_work/no-shared.log"
+  cat "$scratch/no-shared.log"
   echo "test: every shared-data test must skip without the data, and there must be some" >&2
   exit 1
 fi

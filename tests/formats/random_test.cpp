@@ -35,8 +35,9 @@ TEST(Rng, IndexAndIndexRangeDrawTheReferenceValues) {
   }
 }
 
-// Above 2^63 about half of the 64-bit draws are rejected: the values stay uniform.
-TEST(Rng, IndexOfAHugeRangeRejectsTheBiasedTail) {
+// A range beyond 32 bits is drawn from 64: half of the indices of a range just above 2^63
+// land in its upper half (a 32-bit draw would put none there).
+TEST(Rng, IndexOfAHugeRangeReachesItsUpperHalf) {
   const uint64_t n = (uint64_t{1} << 63) + 1;
   Rng rng(1, 1);
   int upper_half = 0;

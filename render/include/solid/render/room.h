@@ -47,6 +47,9 @@ class RoomShell {
   bool Covered(int i, int j) const { return floor_z_[Cell(i, j)] == floor_z_[Cell(i, j)]; }  // not NaN
   double FloorZ(int i, int j) const { return floor_z_[Cell(i, j)]; }
   double CeilingZ(int i, int j) const { return ceiling_z_[Cell(i, j)]; }
+  // The highest lattice level k at or below the ceiling of some covered column (at most
+  // points() - 1): floating objects are placed on levels 0..TopLevel().
+  int TopLevel() const { return top_level_; }
   // The covered columns (i, j) whose horizontal distance from the origin lies in
   // params.camera_ring_m, row by row: where cameras stand (solid-method.md 2.3). Computed
   // once per shell, not per layout draw.
@@ -79,6 +82,7 @@ class RoomShell {
   double x0_ = 0, y0_ = 0;
   std::array<double, 3> step_ = {0, 0, 0};
   std::vector<double> floor_z_, ceiling_z_;
+  int top_level_ = 0;
   std::vector<std::pair<int, int>> camera_columns_;
   // Uniform grid over the shell's triangles for TouchesShell.
   Vec3 grid_min_;
