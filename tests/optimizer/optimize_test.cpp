@@ -3,6 +3,7 @@
 // an infeasible target ends with its blocking bound; and dataset metrics from stored masks.
 #include "solid/optimizer/optimize.h"
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -312,6 +313,36 @@ TEST(Optimize, LaterRoundStartsFromThePreviousJacobian) {
   ASSERT_GE(second_round.size(), 2u);
   EXPECT_EQ(second_round[0], "start");
   EXPECT_EQ(second_round[1], "local");
+}
+
+// A confirmation near the targets but outside the search margin: the point is corrected by
+// Gauss-Newton steps on the confirmations, each measured on the common layouts (trace phase
+// "correct") and confirmed on fresh layouts of its own, the k-th confirmation on
+// [kConfirmFirst + k * kConfirmRoundStride, ... + confirm_layouts). The report gives the last
+// corrected point with its own confirmation when that one meets the target.
+TEST(Optimize, ConfirmationNearTheTargetsIsCorrectedOnFreshLayouts) {
+  Result<OptimizeOptions> options = TwoRoundsOfAttempts(40);
+  ASSERT_OK(options.status());
+  OptimizeOptions& o = *options;
+  o.targets = {{Metric::kObjectsPerImage, 9, 0.25}};
+  o.search_margin = 0.2;  // so that the first confirmation is outside it
+  Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+  ASSERT_OK(r.status());
+  std::vector<const TraceRow*> corrected;
+  for (const TraceRow& t : r->trace) {
+    if (t.phase == "correct") corrected.push_back(&t);
+  }
+  ASSERT_FALSE(corrected.empty()) << r->stop_reason;
+  EXPECT_THAT(r->stop_reason, HasSubstr(fmt::format("{} correction step(s)", corrected.size())));
+  ASSERT_TRUE(r->all_met) << r->ToJson().dump(1);
+  EXPECT_EQ(r->best_x, corrected.back()->x);
+  EXPECT_EQ(r->search_metrics.objects_per_image.mean, corrected.back()->metrics.objects_per_image.mean);
+  const int64_t k = r->rounds - 1 + static_cast<int64_t>(corrected.size());
+  const EvaluationOptions fresh{o.seed, kConfirmFirst + k * kConfirmRoundStride, o.confirm_layouts, 0, 0, 2};
+  Result<Evaluation> confirmed = Evaluate(r->best, render::testing::ProceduralLibrary(), fresh);
+  ASSERT_OK(confirmed.status());
+  EXPECT_EQ(r->confirmation.objects_per_image.mean, confirmed->metrics.objects_per_image.mean);
+  EXPECT_EQ(r->confirmation.visible_instances, confirmed->metrics.visible_instances);
 }
 
 // Cancelled after the 3rd evaluation: the report holds the best of those three,

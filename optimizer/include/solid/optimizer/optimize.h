@@ -36,7 +36,8 @@
 namespace solid::optimizer {
 
 inline constexpr int64_t kConfirmFirst = int64_t{1} << 40;
-// Round r confirms on layouts from kConfirmFirst + r * kConfirmRoundStride.
+// The k-th confirmation (from 0: rounds and correction steps, in order) measures layouts
+// from kConfirmFirst + k * kConfirmRoundStride.
 inline constexpr int64_t kConfirmRoundStride = int64_t{1} << 32;
 inline constexpr int64_t kPilotFirst = int64_t{1} << 41;
 
@@ -100,7 +101,8 @@ struct TraceRow {
   int evaluation = 0;  // from 1
   int round = 0;
   // "output" (round one's start on its common layouts at the output resolution), "start",
-  // "global", "jacobian" (gauss-newton's differences), "local", "probe"
+  // "global", "jacobian" (gauss-newton's differences), "local", "correct" (a step on the
+  // confirmations, see OptimizeOptions::search_margin), "probe"
   std::string phase;
   std::vector<double> x;
   ProxyMetrics metrics;
@@ -143,11 +145,13 @@ struct OptimizeOptions {
   // The search stops once every target is within this share of its tolerance on the common
   // seeds, leaving the rest of the tolerance to sampling error.
   double search_margin = 0.5;
-  // When the fresh-seed confirmation misses a target, or meets it outside search_margin
-  // while the budget has room for a round like the last, the search resumes from the best
-  // point with twice the layouts and half the step, at most this many rounds in all. The
-  // report gives the last round's point, or the latest that met every target when the
-  // last one missed.
+  // When the fresh-seed confirmation is outside search_margin on some target: within 3
+  // tolerances of every target (and with a Gauss-Newton Jacobian), Gauss-Newton steps on
+  // the confirmations themselves, each confirmed afresh, while the budget has room
+  // (trace phase "correct"); farther, when it misses a target or the budget has room for
+  // a round like the last, the search resumes from the best point with twice the layouts
+  // and half the step, at most this many rounds in all. The report gives the latest
+  // confirmed point, or the latest that met every target when the last one missed.
   int max_rounds = 3;
   std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
   // Stops the search (solid/formats/cancel.h): the evaluation in flight is dropped, and
