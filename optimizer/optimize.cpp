@@ -174,6 +174,30 @@ Result<std::vector<double>> SolveLinearModel(const LinearModel& model, const std
   return d;
 }
 
+// The linear model of r + J d, damped a little so that the step stays defined where J is
+// rank-deficient (a knob that moves no metric).
+LinearModel DampedModel(const std::vector<double>& r, const std::vector<double>& jacobian, size_t n) {
+  double column_norms = 0;
+  for (double e : jacobian) column_norms += e * e;
+  return {r, jacobian, n, 1e-4 * column_norms / static_cast<double>(n), 1 / std::max(1.0, SquaredNorm(r))};
+}
+
+// The model's best step from `x`, at most `radius` in each dimension and inside the unit cube.
+Result<std::vector<double>> StepWithin(const LinearModel& model, const std::vector<double>& x, double radius) {
+  std::vector<double> lower(x.size()), upper(x.size());
+  for (size_t j = 0; j < x.size(); ++j) {
+    lower[j] = std::max(-radius, -x[j]);
+    upper[j] = std::min(radius, 1 - x[j]);
+  }
+  return SolveLinearModel(model, lower, upper);
+}
+
+double LargestComponent(const std::vector<double>& d) {
+  double largest = 0;
+  for (double e : d) largest = std::max(largest, std::abs(e));
+  return largest;
+}
+
 // The state of one Optimize call, shared with NLopt's callback.
 struct Search {
   std::shared_ptr<render::AssetLibrary> library;
@@ -437,19 +461,10 @@ struct Search {
         if (stop()) break;
         jacobian_current = jacobian_fresh = true;
       }
-      std::vector<double> lower(n), upper(n);
-      for (size_t j = 0; j < n; ++j) {
-        lower[j] = std::max(-radius, -x[j]);
-        upper[j] = std::min(radius, 1 - x[j]);
-      }
-      double column_norms = 0;
-      for (double e : jacobian) column_norms += e * e;
-      const LinearModel model{r, jacobian, n, 1e-4 * column_norms / static_cast<double>(n),
-                              1 / std::max(1.0, SquaredNorm(r))};
-      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, SolveLinearModel(model, lower, upper));
+      const LinearModel model = DampedModel(r, jacobian, n);
+      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, StepWithin(model, x, radius));
       const double predicted = SquaredNorm(r) - SquaredNorm(model.Predict(d.data()));
-      double step = 0;
-      for (double e : d) step = std::max(step, std::abs(e));
+      const double step = LargestComponent(d);
       if (!(predicted > 0) || step < kMinRadius) {
         // A stationary point of the model within the bounds; one measured afresh decides.
         if (jacobian_fresh) {
@@ -537,19 +552,9 @@ struct Search {
       return true;
     };
     while (!settled() && !OutOfBudget()) {
-      std::vector<double> lower(n), upper(n);
-      for (size_t j = 0; j < n; ++j) {
-        lower[j] = std::max(-kRadius, -best_unit[j]);
-        upper[j] = std::min(kRadius, 1 - best_unit[j]);
-      }
-      double column_norms = 0;
-      for (double e : previous_jacobian) column_norms += e * e;
-      const LinearModel model{aim, previous_jacobian, n, 1e-4 * column_norms / static_cast<double>(n),
-                              1 / std::max(1.0, SquaredNorm(aim))};
-      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, SolveLinearModel(model, lower, upper));
-      double step = 0;
-      for (double e : d) step = std::max(step, std::abs(e));
-      if (step < kAtBound) break;
+      const LinearModel model = DampedModel(aim, previous_jacobian, n);
+      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, StepWithin(model, best_unit, kRadius));
+      if (LargestComponent(d) < kAtBound) break;
       std::vector<double> next = best_unit;
       for (size_t j = 0; j < n; ++j) next[j] = std::clamp(best_unit[j] + d[j], 0.0, 1.0);
       SOLID_ASSIGN_OR_RETURN(LayoutParams params, options.space.Decode(options.start, ToUnits(next.data())));
