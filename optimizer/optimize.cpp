@@ -269,9 +269,9 @@ struct Search {
   }
   // Fresh layouts at the output resolution: what the confirmation measures, so that what it
   // reports is what a render of these params will show.
-  // Each round has its own: a round aims at the targets shifted by the previous round's
-  // confirmation, so measuring its point on the same layouts would reward a point that
-  // suits their sampling error.
+  // Each confirmation has its own: a round, or a correction step, aims at what the previous
+  // confirmation measured, so measuring its point on the same layouts would reward a point
+  // that suits their sampling error.
   Result<Evaluation> Confirm(const LayoutParams& params) {
     const EvaluationOptions fresh{options.seed, kConfirmFirst + confirmations * kConfirmRoundStride,
                                   options.confirm_layouts, 0, 0, options.jobs, options.cancel};
