@@ -341,6 +341,15 @@ struct Search {
     return Measured{objective, std::move(e->metrics)};
   }
 
+  // `unit` on the common layouts as Run measures it (a trace row), never taken as the best.
+  Result<Measured> RunAside(const std::vector<double>& unit) {
+    const double saved_best = best_objective;
+    best_objective = -1;
+    Result<Measured> measured_aside = Run(unit, nullptr);
+    best_objective = saved_best;
+    return measured_aside;
+  }
+
   // `params` on the common layouts at the output resolution: a trace row, never the best.
   Result<Evaluation> RunAtOutput(const LayoutParams& params) {
     EvaluationOptions at_output = Eval(0, layouts);
@@ -558,18 +567,15 @@ struct Search {
       std::vector<double> next = best_unit;
       for (size_t j = 0; j < n; ++j) next[j] = std::clamp(best_unit[j] + d[j], 0.0, 1.0);
       SOLID_ASSIGN_OR_RETURN(LayoutParams params, options.space.Decode(options.start, ToUnits(next.data())));
-      const double saved_best = best_objective;
-      best_objective = -1;  // Run must not take it as the best: the confirmation decides
-      Result<Measured> common = Run(next, nullptr);
-      best_objective = saved_best;
-      SOLID_RETURN_IF_ERROR(common.status());
+      // The confirmation, not the common layouts, decides whether the step's point is kept.
+      SOLID_ASSIGN_OR_RETURN(const Measured common, RunAside(next));
       const std::vector<double> carried = model.Predict(d.data());
       SOLID_ASSIGN_OR_RETURN(confirmation, Confirm(params));
       ++corrections;
       best_unit = next;
       report.best = std::move(params);
-      report.search_metrics = common->metrics;
-      best_objective = common->objective;
+      report.search_metrics = common.metrics;
+      best_objective = common.objective;
       on_confirmed(confirmation);
       const std::vector<double> fresh = Residuals(confirmation.metrics, options.targets);
       const double layouts_now = static_cast<double>(options.confirm_layouts);
@@ -590,16 +596,12 @@ struct Search {
       if (!at_lo && !at_hi) continue;
       std::vector<double> probe = best_unit;
       probe[i] += at_lo ? kProbeStep : -kProbeStep;
-      const double saved_best = best_objective;
-      best_objective = -1;  // a probe never replaces the best point
-      Result<Measured> f = Run(probe, nullptr);
-      best_objective = saved_best;
-      SOLID_RETURN_IF_ERROR(f.status());
+      SOLID_ASSIGN_OR_RETURN(const Measured f, RunAside(probe));
       for (TargetResult& t : results) {
         if (t.met) continue;
         const double need = t.target.value - t.predicted.mean;
         const double at_best = MetricOf(report.search_metrics, t.target.metric).mean;
-        const double moved = MetricOf(f->metrics, t.target.metric).mean - at_best;
+        const double moved = MetricOf(f.metrics, t.target.metric).mean - at_best;
         if (moved * need >= 0) continue;
         t.blocked_by.push_back(fmt::format("{} at its {} bound {:g} (a step inside moves {} from {:.4g} to {:.4g})",
                                            dims[i].name, at_lo ? "lower" : "upper", at_lo ? dims[i].lo : dims[i].hi,
