@@ -315,17 +315,19 @@ TEST(Optimize, LaterRoundStartsFromThePreviousJacobian) {
   EXPECT_EQ(second_round[1], "local");
 }
 
-// A confirmation near the targets but outside the search margin: the point is corrected by
-// Gauss-Newton steps on the confirmations, each measured on the common layouts (trace phase
-// "correct") and confirmed on fresh layouts of its own, the k-th confirmation on
-// [kConfirmFirst + k * kConfirmRoundStride, ... + confirm_layouts). The report gives the last
-// corrected point with its own confirmation when that one meets the target.
+// A confirmation near the targets but outside the search margin, with no room for another
+// round: the point is corrected by Gauss-Newton steps on the confirmations, each measured on
+// the common layouts (trace phase "correct") and confirmed on fresh layouts of its own, the
+// k-th confirmation on [kConfirmFirst + k * kConfirmRoundStride, ... + confirm_layouts). The
+// report gives the last corrected point with its own confirmation when that one meets the
+// target.
 TEST(Optimize, ConfirmationNearTheTargetsIsCorrectedOnFreshLayouts) {
   Result<OptimizeOptions> options = TwoRoundsOfAttempts(40);
   ASSERT_OK(options.status());
   OptimizeOptions& o = *options;
   o.targets = {{Metric::kObjectsPerImage, 9, 0.25}};
   o.search_margin = 0.2;  // so that the first confirmation is outside it
+  o.max_rounds = 1;
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
   std::vector<const TraceRow*> corrected;
@@ -343,6 +345,32 @@ TEST(Optimize, ConfirmationNearTheTargetsIsCorrectedOnFreshLayouts) {
   ASSERT_OK(confirmed.status());
   EXPECT_EQ(r->confirmation.objects_per_image.mean, confirmed->metrics.objects_per_image.mean);
   EXPECT_EQ(r->confirmation.visible_instances, confirmed->metrics.visible_instances);
+}
+
+// A confirmation that missed, though near the targets, while the budget has room for
+// another round: that round searches again on twice the layouts, and no correction step
+// is taken from the miss (the last Jacobian is too noisy to trust from there).
+TEST(Optimize, MissedConfirmationWithRoomForARoundSearchesAgain) {
+  Result<OptimizeOptions> options = TwoRoundsOfAttempts(40);
+  ASSERT_OK(options.status());
+  OptimizeOptions& o = *options;
+  o.targets = {{Metric::kObjectsPerImage, 9, 0.25}};
+  o.search_margin = 0.2;
+  Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+  ASSERT_OK(r.status());
+  ASSERT_EQ(r->rounds, 2) << r->stop_reason;
+  const auto second = std::find_if(r->trace.begin(), r->trace.end(), [](const TraceRow& t) { return t.round == 1; });
+  ASSERT_NE(second, r->trace.end());
+  // The first round's point, confirmed as Optimize did: a miss, but near enough for steps.
+  Result<render::LayoutParams> point = o.space.Decode(o.start, second->x);
+  ASSERT_OK(point.status());
+  const EvaluationOptions confirm{o.seed, kConfirmFirst, o.confirm_layouts, 0, 0, 2};
+  Result<Evaluation> confirmed = Evaluate(*point, render::testing::ProceduralLibrary(), confirm);
+  ASSERT_OK(confirmed.status());
+  const double miss = std::abs(confirmed->metrics.objects_per_image.mean - 9);
+  ASSERT_GT(miss, 0.25);
+  ASSERT_LE(miss, 3 * 0.25);
+  for (auto t = r->trace.begin(); t != second; ++t) EXPECT_NE(t->phase, "correct");
 }
 
 // Cancelled after the 3rd evaluation: the report holds the best of those three,

@@ -213,7 +213,8 @@ struct FitFiles {
   std::filesystem::path Record() const;
 };
 
-// What a fit's result depends on, hashed: the asset catalogs (`catalog_hash`), the start,
+// What a fit's result depends on, hashed: the project version and the search's own
+// revision (raised when the search changes), the asset catalogs (`catalog_hash`), the start,
 // the space's dimensions, the targets, and every option that steers the search (algorithm,
 // global phase, seed, layouts, evaluation resolution, confirmation, pilot, budgets, margin,
 // rounds). Not jobs, on_evaluation or cancel: results are the same for any of them.
