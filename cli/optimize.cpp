@@ -219,7 +219,7 @@ Command AddOptimize(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--max-evals", o.max_evaluations, "Evaluation budget")->capture_default_str();
   cmd->add_option("--max-seconds", o.max_seconds, "Time budget of the search and its confirmation (the pilot comes on top)")->capture_default_str();
-  cmd->add_option("--margin", o.search_margin, "Stop the search within this share of each tolerance on the common layouts; a confirmation outside it gets correction steps on fresh layouts when within 3 tolerances of every target, else another round, while the budget has room")
+  cmd->add_option("--margin", o.search_margin, "Stop the search within this share of each tolerance on the common layouts; a confirmation outside it gets correction steps on fresh layouts when within 3 tolerances of every target and either meeting them all or with no room for another round, else another round, while the budget has room")
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (a missed confirmation, or one outside --margin with time left, starts another)")
       ->capture_default_str()->check(CLI::Range(1, 10));

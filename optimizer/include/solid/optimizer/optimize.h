@@ -146,11 +146,12 @@ struct OptimizeOptions {
   // seeds, leaving the rest of the tolerance to sampling error.
   double search_margin = 0.5;
   // When the fresh-seed confirmation is outside search_margin on some target: within 3
-  // tolerances of every target (and with a Gauss-Newton Jacobian), Gauss-Newton steps on
-  // the confirmations themselves, each confirmed afresh, while the budget has room
-  // (trace phase "correct"); farther, when it misses a target or the budget has room for
-  // a round like the last, the search resumes from the best point with twice the layouts
-  // and half the step, at most this many rounds in all. The report gives the latest
+  // tolerances of every target (and with a Gauss-Newton Jacobian), and either meeting every
+  // target or with no room for another round, Gauss-Newton steps on the confirmations
+  // themselves, each confirmed afresh, while the budget has room (trace phase "correct");
+  // otherwise, when it misses a target or the budget has room for a round like the last
+  // (time, evaluations and rounds), the search resumes from the best point with twice the
+  // layouts and half the step, at most this many rounds in all. The report gives the latest
   // confirmed point, or the latest that met every target when the last one missed.
   int max_rounds = 3;
   std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
