@@ -110,6 +110,12 @@ int RunOptimize(OptimizeFlags& f) {
                t.evaluation, t.round, t.phase, t.objective, m.objects_per_image.mean, 100 * m.occlusion.mean,
                100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, t.seconds);
   };
+  o.search.on_confirmation = [](const optimizer::ConfirmationRow& c) {
+    const ProxyMetrics& m = c.metrics;
+    fmt::print(stderr, "confirm r{} {:<7} {:<6} on {} fresh layouts  count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%  {:6.1f} s\n",
+               c.round, c.phase, c.met ? "met" : "missed", m.images, m.objects_per_image.mean, 100 * m.occlusion.mean,
+               100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, c.seconds);
+  };
   o.search.cancel = InstallStopHandlers();
   Result<optimizer::FitReport> fitted = optimizer::Fit(o);
   if (fitted.status().code() == StatusCode::kCancelled) {

@@ -282,13 +282,18 @@ struct Search {
   // Each confirmation has its own: a round, or a correction step, aims at what the previous
   // confirmation measured, so measuring its point on the same layouts would reward a point
   // that suits their sampling error.
-  Result<Evaluation> Confirm(const LayoutParams& params) {
+  // `unit` is where params lie in the unit cube; `kind` is "round" or "correct".
+  Result<Evaluation> Confirm(const LayoutParams& params, const std::vector<double>& unit, std::string_view kind) {
     const EvaluationOptions fresh{options.seed, kConfirmFirst + confirmations * kConfirmRoundStride,
                                   options.confirm_layouts, 0, 0, options.jobs, options.cancel};
     SOLID_ASSIGN_OR_RETURN(Evaluation e, Evaluate(params, library, fresh));
     ++confirmations;
     output_seconds += e.seconds;
     output_layouts += options.confirm_layouts;
+    ConfirmationRow row{round, std::string(kind), ToUnits(unit.data()), e.metrics,
+                        Within(e.metrics, options.targets, 1.0), SecondsSince(start)};
+    if (options.on_confirmation) options.on_confirmation(row);
+    report.confirmations.push_back(std::move(row));
     return e;
   }
 
@@ -580,7 +585,7 @@ struct Search {
       // The confirmation, not the common layouts, decides whether the step's point is kept.
       SOLID_ASSIGN_OR_RETURN(const Measured common, RunAside(next));
       const std::vector<double> carried = model.Predict(d.data());
-      SOLID_ASSIGN_OR_RETURN(confirmation, Confirm(params));
+      SOLID_ASSIGN_OR_RETURN(confirmation, Confirm(params, next, "correct"));
       ++corrections;
       best_unit = next;
       report.best = std::move(params);
@@ -797,7 +802,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
                                     : s.Minimize(local, options.algorithm, budget, step_scale));
         }
       }
-      SOLID_ASSIGN_OR_RETURN(confirmation, s.Confirm(r.best));
+      SOLID_ASSIGN_OR_RETURN(confirmation, s.Confirm(r.best, s.best_unit, "round"));
       auto on_confirmed = [&](const Evaluation& e) {
         if (Within(e.metrics, options.targets, 1.0)) met_earlier = Confirmed{r.best, s.best_unit, r.search_metrics, e};
       };
@@ -913,6 +918,16 @@ nlohmann::json OptimizeReport::ToJson() const {
                       {"cancelled", cancelled},
                       {"params", render::ParamsToJson(best)}};
   if (pilot) j["pilot"] = pilot->ToJson();
+  nlohmann::json confirmed = nlohmann::json::array();
+  for (const ConfirmationRow& c : confirmations) {
+    confirmed.push_back({{"round", c.round},
+                         {"phase", c.phase},
+                         {"x", c.x},
+                         {"metrics", c.metrics.ToJson()},
+                         {"met", c.met},
+                         {"seconds", c.seconds}});
+  }
+  j["confirmations"] = std::move(confirmed);
   return j;
 }
 

@@ -345,6 +345,17 @@ TEST(Optimize, ConfirmationNearTheTargetsIsCorrectedOnFreshLayouts) {
   ASSERT_OK(confirmed.status());
   EXPECT_EQ(r->confirmation.objects_per_image.mean, confirmed->metrics.objects_per_image.mean);
   EXPECT_EQ(r->confirmation.visible_instances, confirmed->metrics.visible_instances);
+  // One confirmation row per round and per step, in order, each step's at its trace row's point.
+  ASSERT_EQ(r->confirmations.size(), static_cast<size_t>(k + 1));
+  EXPECT_EQ(r->confirmations.front().phase, "round");
+  for (size_t i = 0; i < corrected.size(); ++i) {
+    const ConfirmationRow& c = r->confirmations[static_cast<size_t>(r->rounds) + i];
+    EXPECT_EQ(c.phase, "correct");
+    EXPECT_EQ(c.x, corrected[i]->x);
+  }
+  EXPECT_TRUE(r->confirmations.back().met);
+  EXPECT_EQ(r->confirmations.back().metrics.visible_instances, confirmed->metrics.visible_instances);
+  EXPECT_EQ(r->ToJson()["confirmations"].size(), r->confirmations.size());
 }
 
 // A confirmation that missed, though near the targets, while the budget has room for
@@ -370,6 +381,13 @@ TEST(Optimize, MissedConfirmationWithRoomForARoundSearchesAgain) {
   const double miss = std::abs(confirmed->metrics.objects_per_image.mean - 9);
   ASSERT_GT(miss, 0.25);
   ASSERT_LE(miss, 3 * 0.25);
+  ASSERT_FALSE(r->confirmations.empty());
+  const ConfirmationRow& first = r->confirmations.front();
+  EXPECT_EQ(first.round, 0);
+  EXPECT_EQ(first.phase, "round");
+  EXPECT_FALSE(first.met);
+  EXPECT_EQ(first.x, second->x);
+  EXPECT_EQ(first.metrics.objects_per_image.mean, confirmed->metrics.objects_per_image.mean);
   for (auto t = r->trace.begin(); t != second; ++t) EXPECT_NE(t->phase, "correct");
 }
 

@@ -111,6 +111,18 @@ struct TraceRow {
   int64_t layouts = 0;
 };
 
+// A point re-measured on fresh layouts at the output resolution: a round's best point
+// (phase "round") or a correction step's ("correct"). These decide what is reported and
+// whether the search goes on; the trace has the common-layout evaluations only.
+struct ConfirmationRow {
+  int round = 0;
+  std::string phase;
+  std::vector<double> x;
+  ProxyMetrics metrics;
+  bool met = false;    // every target within its tolerance
+  double seconds = 0;  // since the start of Optimize, when it was done
+};
+
 struct OptimizeOptions {
   render::LayoutParams start;
   SearchSpace space;
@@ -155,6 +167,7 @@ struct OptimizeOptions {
   // confirmed point, or the latest that met every target when the last one missed.
   int max_rounds = 3;
   std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
+  std::function<void(const ConfirmationRow&)> on_confirmation;  // and after each confirmation
   // Stops the search (solid/formats/cancel.h): the evaluation in flight is dropped, and
   // Optimize returns the best point of the evaluations done, unconfirmed (report.cancelled),
   // or kCancelled when none was done.
@@ -196,6 +209,7 @@ struct OptimizeReport {
   // confirmation, pilot and blocked_by are empty.
   bool cancelled = false;
   std::vector<TraceRow> trace;
+  std::vector<ConfirmationRow> confirmations;  // in order; the k-th on the k-th fresh range
   nlohmann::json ToJson() const;  // everything but the trace
 };
 
@@ -218,7 +232,7 @@ struct FitFiles {
 // revision (raised when the search changes), the asset catalogs (`catalog_hash`), the start,
 // the space's dimensions, the targets, and every option that steers the search (algorithm,
 // global phase, seed, layouts, evaluation resolution, confirmation, pilot, budgets, margin,
-// rounds). Not jobs, on_evaluation or cancel: results are the same for any of them.
+// rounds). Not jobs, on_evaluation, on_confirmation or cancel: results are the same for any of them.
 uint64_t FitFingerprint(const OptimizeOptions& options, uint64_t catalog_hash);
 
 // Writes the params (with a $comment saying how they were found), the trace and the fit
