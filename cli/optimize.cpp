@@ -39,6 +39,12 @@ std::string Percent(Metric m, double v) {
   return m == Metric::kObjectsPerImage ? fmt::format("{:.2f}", v) : fmt::format("{:.1f}%", 100 * v);
 }
 
+// The metrics of one progress line, evaluation or confirmation alike.
+std::string ProgressMetrics(const ProxyMetrics& m) {
+  return fmt::format("count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%", m.objects_per_image.mean,
+                     100 * m.occlusion.mean, 100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean);
+}
+
 void PrintReport(const optimizer::OptimizeReport& r, const std::string& out) {
   fmt::print("{} after {} evaluations, {} round(s), {:.1f} s: {}\n",
              r.cancelled ? "STOPPED" : r.all_met ? "MET" : "NOT MET", r.evaluations, r.rounds, r.seconds,
@@ -105,16 +111,12 @@ int RunOptimize(OptimizeFlags& f) {
   o.asset_cache_bytes = f.asset_cache_mb << 20;
   o.on_note = [](const std::string& line) { fmt::print(stderr, "solid: {}\n", line); };
   o.search.on_evaluation = [](const optimizer::TraceRow& t) {
-    const ProxyMetrics& m = t.metrics;
-    fmt::print(stderr, "eval {:>4} r{} {:<6} objective {:>9.3f}  count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%  {:6.1f} s\n",
-               t.evaluation, t.round, t.phase, t.objective, m.objects_per_image.mean, 100 * m.occlusion.mean,
-               100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, t.seconds);
+    fmt::print(stderr, "eval {:>4} r{} {:<6} objective {:>9.3f}  {}  {:6.1f} s\n", t.evaluation, t.round, t.phase,
+               t.objective, ProgressMetrics(t.metrics), t.seconds);
   };
   o.search.on_confirmation = [](const optimizer::ConfirmationRow& c) {
-    const ProxyMetrics& m = c.metrics;
-    fmt::print(stderr, "confirm r{} {:<7} {:<6} on {} fresh layouts  count {:5.2f}  occ {:4.1f}%  s/m/l {:4.1f}/{:4.1f}/{:4.1f}%  {:6.1f} s\n",
-               c.round, c.phase, c.met ? "met" : "missed", m.images, m.objects_per_image.mean, 100 * m.occlusion.mean,
-               100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean, c.seconds);
+    fmt::print(stderr, "confirm r{} {:<7} {:<6} on {} fresh layouts  {}  {:6.1f} s\n", c.round, c.phase,
+               c.met ? "met" : "missed", c.metrics.images, ProgressMetrics(c.metrics), c.seconds);
   };
   o.search.cancel = InstallStopHandlers();
   Result<optimizer::FitReport> fitted = optimizer::Fit(o);

@@ -816,7 +816,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
       // with seed 2: two steps ended at 9.48 objects against 8.72, a second round met it).
       // From a confirmation that met, a step cannot lose the fit (met_earlier below).
       if (Within(confirmation.metrics, options.targets, options.search_margin) || s.OutOfBudget()) break;
-      const bool confirmed_met = Within(confirmation.metrics, options.targets, 1.0);
+      const bool confirmed_met = r.confirmations.back().met;
       if (s.Correctable(confirmation.metrics) && (confirmed_met || !s.RoomForAnotherRound())) {
         SOLID_RETURN_IF_ERROR(s.Correct(confirmation, on_confirmed));
         break;
