@@ -181,6 +181,8 @@ Status SlurmCluster::Launch() {
   // MinJobAge 5 keeps sbatch --wait polling every 2 s (its interval grows towards 10 s
   // otherwise), and batch_sched_delay=0 starts the next array task as soon as one ends: an
   // array of four 1-s tasks, two at a time, took 10 s with Slurm's defaults and 4 s so.
+  // cred_expire 10 (default 120) is also how long a requeued job waits before it may start
+  // again: slurmd refuses the credential of a job it killed until that credential expires.
   const std::string conf = fmt::format(
       "ClusterName=solidfarm\n"
       "SlurmctldHost={host}(127.0.0.1)\n"
@@ -190,7 +192,7 @@ Status SlurmCluster::Launch() {
       "SlurmdUser=root\n"
       "AuthType=auth/munge\n"
       "CryptoType=crypto/munge\n"
-      "AuthInfo=socket={socket}\n"
+      "AuthInfo=socket={socket},cred_expire=10\n"
       "StateSaveLocation={dir}/state\n"
       "SlurmdSpoolDir={dir}/spool\n"
       "SlurmctldPidFile={dir}/slurmctld.pid\n"
