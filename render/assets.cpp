@@ -103,9 +103,6 @@ Result<std::shared_ptr<const LoadedAsset>> LoadedAsset::Build(std::shared_ptr<De
 
   RTCDevice dev = out->device_->handle();
   RTCScene scene = rtcNewScene(dev);
-  // The mask pass filters every hit through the ray context (rtcore_scene.h): the flag
-  // must be set on the scene that holds the triangles.
-  rtcSetSceneFlags(scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
   rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
   RTCGeometry geometry = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
   // Embree may read up to 16 bytes past the last vertex: pad the vertex array.

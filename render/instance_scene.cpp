@@ -18,11 +18,9 @@ std::vector<SceneInstance> LayoutInstances(const Layout& layout) {
 }  // namespace
 
 ObjectScene::ObjectScene(RTCDevice device, const Layout& layout)
-    : ObjectScene(device, LayoutInstances(layout), /*context_filter=*/true) {}
+    : ObjectScene(device, LayoutInstances(layout)) {}
 
-ObjectScene::ObjectScene(RTCDevice device, std::span<const SceneInstance> instances, bool context_filter)
-    : scene_(rtcNewScene(device)) {
-  if (context_filter) rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+ObjectScene::ObjectScene(RTCDevice device, std::span<const SceneInstance> instances) : scene_(rtcNewScene(device)) {
   for (size_t k = 0; k < instances.size(); ++k) {
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
     rtcSetGeometryInstancedScene(g, instances[k].scene);

@@ -37,10 +37,9 @@ struct SceneInstance {
 // A committed top-level scene whose instance id k is instances[k].
 class ObjectScene {
  public:
-  // The layout's objects, instance id = placement index, with context filter
-  // functions enabled (the mask pass records crossings through them).
+  // The layout's objects, instance id = placement index.
   ObjectScene(RTCDevice device, const Layout& layout);
-  ObjectScene(RTCDevice device, std::span<const SceneInstance> instances, bool context_filter);
+  ObjectScene(RTCDevice device, std::span<const SceneInstance> instances);
   ~ObjectScene() { rtcReleaseScene(scene_); }
   ObjectScene(const ObjectScene&) = delete;
   ObjectScene& operator=(const ObjectScene&) = delete;

@@ -24,59 +24,51 @@ constexpr int kMaxTruncationSamples = 4096;
 constexpr int kTile = 4;
 constexpr int kLanes = kTile * kTile;
 
-// The intersect context of an object packet: Embree hands it back to the filter, which
-// records what each ray crosses. Embree's context must be the first member.
-struct CrossingContext {
-  RTCIntersectContext base;
-  uint32_t pixel[kLanes] = {};
-  float nearest_t[kLanes] = {};
-  uint32_t nearest[kLanes] = {};
-  uint8_t* const* full = nullptr;  // full pass: per object, its full mask, row-major
-  // Metrics-only pass: a ray crosses an object once per surface, so each (lane, object)
-  // remembers the pixel it last counted (+ 1) and full_counts[object] counts pixels.
-  uint32_t* counted = nullptr;  // kLanes x objects
-  uint64_t* full_counts = nullptr;
-  size_t objects = 0;
-};
-
-void RecordCrossings(const RTCFilterFunctionNArguments* args) {
-  auto* ctx = reinterpret_cast<CrossingContext*>(const_cast<RTCIntersectContext*>(args->context));
-  // Embree calls with N = the packet width; lane i is lane i of the packet, also when it
-  // traverses one ray of the packet alone.
-  for (unsigned i = 0; i < args->N; ++i) {
-    if (args->valid[i] != -1) continue;
-    // During the filter call Embree has set the ray's tfar to the candidate hit's distance.
-    const float t = RTCRayN_tfar(args->ray, args->N, i);
-    const uint32_t object = RTCHitN_instID(args->hit, args->N, i, 0);
-    if (t < ctx->nearest_t[i]) {
-      ctx->nearest_t[i] = t;
-      ctx->nearest[i] = object;
-    }
-    if (ctx->full != nullptr) {
-      ctx->full[object][ctx->pixel[i]] = 1;
-    } else if (uint32_t& last = ctx->counted[i * ctx->objects + object]; last != ctx->pixel[i] + 1) {
-      last = ctx->pixel[i] + 1;
-      ++ctx->full_counts[object];
-    }
-    args->valid[i] = 0;  // reject: traversal goes on to farther surfaces
-  }
+void SetLane(RTCRay16* ray, int i, Vec3 origin, Vec3 direction, float tnear) {
+  ray->org_x[i] = static_cast<float>(origin.x);
+  ray->org_y[i] = static_cast<float>(origin.y);
+  ray->org_z[i] = static_cast<float>(origin.z);
+  ray->dir_x[i] = static_cast<float>(direction.x);
+  ray->dir_y[i] = static_cast<float>(direction.y);
+  ray->dir_z[i] = static_cast<float>(direction.z);
+  ray->tnear[i] = tnear;
+  ray->tfar[i] = kInfinity;
+  ray->time[i] = 0;
+  ray->mask[i] = UINT32_MAX;
+  ray->id[i] = 0;
+  ray->flags[i] = 0;
 }
 
-void SetLane(RTCRayHit16* packet, int i, Vec3 origin, Vec3 direction, float tnear) {
-  packet->ray.org_x[i] = static_cast<float>(origin.x);
-  packet->ray.org_y[i] = static_cast<float>(origin.y);
-  packet->ray.org_z[i] = static_cast<float>(origin.z);
-  packet->ray.dir_x[i] = static_cast<float>(direction.x);
-  packet->ray.dir_y[i] = static_cast<float>(direction.y);
-  packet->ray.dir_z[i] = static_cast<float>(direction.z);
-  packet->ray.tnear[i] = tnear;
-  packet->ray.tfar[i] = kInfinity;
-  packet->ray.time[i] = 0;
-  packet->ray.mask[i] = UINT32_MAX;
-  packet->ray.id[i] = 0;
-  packet->ray.flags[i] = 0;
-  packet->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-  packet->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+// The ray through the centre of pixel (x, y), unit length, as every pass casts it: a pixel
+// belongs to an object's full mask exactly when this ray hits the object. `length`: of the
+// unnormalised direction, whose camera-space z is -1 (depth = t / length).
+Vec3 PixelRay(const Camera& cam, int x, int y, float* length) {
+  const Vec3 raw = RayDirection(cam, x + 0.5, y + 0.5);
+  *length = static_cast<float>(Length(raw));
+  return raw * (1.0 / Length(raw));
+}
+
+// Pixels [x0, x1) x [y0, y1) whose centre rays can hit an object: its box projected, a
+// pixel wider for rounding, or the whole image when the box reaches behind the near plane.
+struct PixelRect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
+PixelRect CandidatePixels(const Layout& layout, const PlacedObject& o) {
+  const int w = layout.width, h = layout.height;
+  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+  for (int c = 0; c < 8; ++c) {
+    double u = 0, v = 0;
+    if (!Project(layout.camera, o.box.Corner(c), layout.near, &u, &v)) return {0, 0, w, h};
+    u0 = std::min(u0, u);
+    u1 = std::max(u1, u);
+    v0 = std::min(v0, v);
+    v1 = std::max(v1, v);
+  }
+  // Pixel x's centre x + 0.5 lies in [u0, u1] for x in [u0 - 0.5, u1 - 0.5].
+  auto first = [](double a, int size) { return static_cast<int>(std::clamp(std::floor(a - 0.5) - 1, 0.0, 1.0 * size)); };
+  auto end = [](double b, int size) { return static_cast<int>(std::clamp(std::floor(b - 0.5) + 2, 0.0, 1.0 * size)); };
+  return {first(u0, w), first(v0, h), end(u1, w), end(v1, h)};
 }
 
 // See the header: the share of the object's silhouette outside the image.
@@ -139,95 +131,135 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
   // Every full mask in one zeroed block: one allocation per layout, not one copy per object.
   std::vector<uint8_t> full;
   std::vector<uint8_t*> full_rows;
+  // The visible-id image, also when only metrics are wanted: the full masks are made to
+  // contain the visible pixels (see the full pass). That one is scratch memory reused by
+  // the calling thread, so that evaluations of many layouts do not fault in fresh pages.
+  static thread_local std::vector<uint32_t> scratch_ids;
+  std::vector<uint32_t>& ids = masks ? out.ids : scratch_ids;
+  ids.assign(pixels, 0);
   if (masks) {
-    out.ids.assign(pixels, 0);
     out.depth.assign(pixels, kInfinity);
     full.assign(objects * pixels, 0);
     full_rows.resize(objects);
     for (size_t k = 0; k < objects; ++k) full_rows[k] = full.data() + k * pixels;
   }
-  // Metrics-only: pixel counts, summed over the threads.
-  std::vector<uint64_t> visible_counts(masks ? 0 : objects, 0), full_counts(masks ? 0 : objects, 0);
+  // Visible pixels per object, summed over the threads; full ones (metrics-only) per object
+  // by the one thread that traces it.
+  std::vector<uint64_t> visible_counts(objects, 0), full_counts(objects, 0);
   std::mutex counts_mutex;
 
-  const ObjectScene object_scene(layout.room->device()->handle(), layout);
+  RTCDevice device = layout.room->device()->handle();
+  const ObjectScene object_scene(device, layout);
   RTCScene room = reinterpret_cast<RTCScene>(layout.room->scene());
   const Camera& cam = layout.camera;
   const Vec3 eye = CameraPosition(cam);
   const float tnear = static_cast<float>(layout.near);
 
-  // Threads take tile rows from a shared counter: objects crowd some rows (near the
-  // floor) and leave others (walls, ceiling) nearly free, so fixed bands balance badly.
-  // Each tile is one packet against the room and one against the objects.
+  // The visible pass. Threads take tile rows from a shared counter: objects crowd some
+  // rows (near the floor) and leave others (walls, ceiling) nearly free, so fixed bands
+  // balance badly. Each tile is one packet against the room and one against the objects,
+  // nearest hit each.
   const int tile_rows = (h + kTile - 1) / kTile;
   std::atomic<int> next_tile_row{0};
-  auto trace_tile_rows = [&] {
-    CrossingContext ctx;
-    rtcInitIntersectContext(&ctx.base);
-    ctx.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    ctx.base.filter = RecordCrossings;
-    std::vector<uint32_t> counted;
-    std::vector<uint64_t> thread_visible, thread_full;
-    if (masks) {
-      ctx.full = full_rows.data();
-    } else {
-      counted.assign(kLanes * objects, 0);
-      thread_visible.assign(objects, 0);
-      thread_full.assign(objects, 0);
-      ctx.counted = counted.data();
-      ctx.full_counts = thread_full.data();
-      ctx.objects = objects;
-    }
-    RTCIntersectContext room_ctx;
-    rtcInitIntersectContext(&room_ctx);
-    room_ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  auto trace_visible = [&] {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    std::vector<uint64_t> thread_visible(objects, 0);
     alignas(64) int valid[kLanes];
     float length[kLanes];
+    uint32_t pixel[kLanes];
     RTCRayHit16 room_rays, object_rays;
     for (int tile_y; (tile_y = next_tile_row.fetch_add(1, std::memory_order_relaxed)) < tile_rows;) {
       for (int x0 = 0; x0 < w; x0 += kTile) {
         for (int i = 0; i < kLanes; ++i) {
           const int x = x0 + i % kTile, y = tile_y * kTile + i / kTile;
           valid[i] = x < w && y < h ? -1 : 0;
-          ctx.pixel[i] = valid[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
-          ctx.nearest_t[i] = kInfinity;
-          ctx.nearest[i] = RTC_INVALID_GEOMETRY_ID;
-          const Vec3 raw = RayDirection(cam, x + 0.5, y + 0.5);
-          length[i] = static_cast<float>(Length(raw));
-          // Depth along -Z: raw has camera-space z = -1, so depth = t / length.
-          SetLane(&room_rays, i, eye, raw * (1.0 / Length(raw)), tnear);
+          pixel[i] = valid[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
+          SetLane(&room_rays.ray, i, eye, PixelRay(cam, x, y, &length[i]), tnear);
+          room_rays.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+          room_rays.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
         }
         object_rays = room_rays;
-        rtcIntersect16(valid, room, &room_ctx, &room_rays);
-        if (objects > 0) rtcIntersect16(valid, object_scene.get(), &ctx.base, &object_rays);
+        rtcIntersect16(valid, room, &context, &room_rays);
+        if (objects > 0) rtcIntersect16(valid, object_scene.get(), &context, &object_rays);
         for (int i = 0; i < kLanes; ++i) {
           if (!valid[i]) continue;
-          const uint32_t pixel = ctx.pixel[i];
           const float room_t =
               room_rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? room_rays.ray.tfar[i] : kInfinity;
-          const bool object_nearest = ctx.nearest[i] != RTC_INVALID_GEOMETRY_ID && ctx.nearest_t[i] < room_t;
-          if (!masks) {
-            if (object_nearest) ++thread_visible[ctx.nearest[i]];
-            continue;
-          }
-          float nearest_t = room_t;
+          const uint32_t nearest = object_rays.hit.instID[0][i];
+          const bool object_nearest = nearest != RTC_INVALID_GEOMETRY_ID && object_rays.ray.tfar[i] < room_t;
           if (object_nearest) {
-            out.ids[pixel] = ctx.nearest[i] + 1;
-            nearest_t = ctx.nearest_t[i];
+            ids[pixel[i]] = nearest + 1;
+            ++thread_visible[nearest];
           }
-          out.depth[pixel] = nearest_t == kInfinity ? kInfinity : nearest_t / length[i];
+          if (masks) {
+            const float nearest_t = object_nearest ? object_rays.ray.tfar[i] : room_t;
+            out.depth[pixel[i]] = nearest_t == kInfinity ? kInfinity : nearest_t / length[i];
+          }
         }
       }
     }
-    if (!masks) {
-      std::lock_guard lock(counts_mutex);
-      for (size_t k = 0; k < objects; ++k) {
-        visible_counts[k] += thread_visible[k];
-        full_counts[k] += thread_full[k];
+    std::lock_guard lock(counts_mutex);
+    for (size_t k = 0; k < objects; ++k) visible_counts[k] += thread_visible[k];
+  };
+  RunOnThreads(std::clamp(options.threads, 1, std::max(1, tile_rows)), trace_visible);
+
+  // The full masks: object by object, the same pixel rays over the pixels its box covers,
+  // against a scene of that object alone, any hit. Cheaper than finding every crossing of
+  // every ray in one pass: each ray stops at its first hit, and only rays near the object
+  // are cast. Embree's traversal of this scene can miss a grazing hit that the visible
+  // pass found (in about one pixel in 40 layouts at 640x480), so each full mask also takes
+  // its object's visible pixels: it always contains the visible mask.
+  std::atomic<size_t> next_object{0};
+  std::vector<uint8_t> visible_outside(objects, 0);
+  auto trace_full = [&] {
+    // Incoherent (the default): with the coherent flag, Embree 3.13.5's rtcOccluded16 never
+    // returned on a one-instance scene (MaskPass tests, after another layout's pass).
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    alignas(64) int valid[kLanes];
+    uint32_t pixel[kLanes];
+    float length = 0;
+    RTCRay16 rays;
+    for (size_t k; (k = next_object.fetch_add(1, std::memory_order_relaxed)) < objects;) {
+      const PlacedObject& o = layout.objects[k];
+      const SceneInstance alone{reinterpret_cast<RTCScene>(o.asset->scene()), o.WorldFromObject()};
+      const ObjectScene scene(device, {&alone, 1});
+      const PixelRect rect = CandidatePixels(layout, o);
+      const uint32_t id = static_cast<uint32_t>(k) + 1;
+      uint64_t count = 0, visible_inside = 0;
+      for (int y0 = rect.y0; y0 < rect.y1; y0 += kTile) {
+        for (int x0 = rect.x0; x0 < rect.x1; x0 += kTile) {
+          for (int i = 0; i < kLanes; ++i) {
+            const int x = x0 + i % kTile, y = y0 + i / kTile;
+            valid[i] = x < rect.x1 && y < rect.y1 ? -1 : 0;
+            pixel[i] = valid[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
+            SetLane(&rays, i, eye, PixelRay(cam, x, y, &length), tnear);
+          }
+          rtcOccluded16(valid, scene.get(), &context, &rays);
+          for (int i = 0; i < kLanes; ++i) {
+            if (!valid[i]) continue;
+            const bool seen = ids[pixel[i]] == id;
+            visible_inside += seen;
+            // An occluded ray's tfar is set to -inf.
+            if (!(seen || rays.tfar[i] < 0)) continue;
+            ++count;
+            if (masks) full_rows[k][pixel[i]] = 1;
+          }
+        }
       }
+      full_counts[k] = count + (visible_counts[k] - visible_inside);
+      visible_outside[k] = visible_counts[k] != visible_inside;
     }
   };
-  RunOnThreads(std::clamp(options.threads, 1, std::max(1, tile_rows)), trace_tile_rows);
+  RunOnThreads(std::clamp(options.threads, 1, std::max<int>(1, static_cast<int>(objects))), trace_full);
+  // Visible pixels outside an object's projected box: none unless rounding put them there.
+  if (masks && std::find(visible_outside.begin(), visible_outside.end(), 1) != visible_outside.end()) {
+    for (size_t p = 0; p < pixels; ++p) {
+      if (ids[p] != 0) full_rows[ids[p] - 1][p] = 1;
+    }
+  }
 
   std::vector<rle::IdRle> visible;
   rle::Rle empty;

@@ -88,7 +88,7 @@ Result<QueryViewsResult> RenderQueryViews(const std::shared_ptr<const LoadedAsse
   const RTCScene bottom = reinterpret_cast<RTCScene>(model->scene());
   const SceneInstance instance{bottom, MakeAffine(rotation, 1.0, Vec3{})};
   const SceneDevice device(bottom);
-  const ObjectScene top(device.get(), {&instance, 1}, /*context_filter=*/false);
+  const ObjectScene top(device.get(), {&instance, 1});
   scene.scene = top.get();
   scene.ambient = {kWorldGrey, kWorldGrey, kWorldGrey};
   scene.background = scene.ambient;

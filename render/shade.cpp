@@ -241,7 +241,7 @@ Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const Sh
   SOLID_ASSIGN_OR_RETURN(auto room_tex, textures.Get(room.textures(), layout.room, "room " + room.key()));
   scene.surfaces.push_back({&room.mesh(), &room.materials(), room_tex.get(), Mat3{}, 1.0, Vec3{}});
   instances.push_back({reinterpret_cast<RTCScene>(room.scene()), kIdentityAffine});
-  const ObjectScene top(room.device()->handle(), instances, /*context_filter=*/false);
+  const ObjectScene top(room.device()->handle(), instances);
   scene.scene = top.get();
 
   for (const AreaLight* l : {&lights.key, &lights.fill, &lights.back}) {

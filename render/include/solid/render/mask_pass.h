@@ -3,12 +3,12 @@
 // room included: solid-method.md 1.2), boxes, areas, occlusion, truncation, scale
 // class and viewpoint, plus the visible-id image and depth. No extra render per object.
 //
-// Per pixel centre, two rays leave the camera: one against the room shell (nearest
-// hit), and one against a top-level scene of the placed objects (Embree instances of
-// each model's cached scene) whose context filter records every object the ray
-// crosses and rejects each hit so that traversal continues. Every crossed object owns
-// the pixel in its full mask; the nearest crossing, when nearer than the room, is the
-// visible object. One sample per pixel, no anti-aliasing, as the reference's ID passes.
+// Per pixel centre, two rays leave the camera: one against the room shell and one
+// against a top-level scene of the placed objects (Embree instances of each model's
+// cached scene), nearest hit each; the nearest object, when nearer than the room, is the
+// visible one. The full mask of an object is where the same pixel-centre rays hit that
+// object alone (any hit), cast over the pixels its box projects to. One sample per pixel,
+// no anti-aliasing, as the reference's ID passes.
 //
 // Truncation (the share of an object outside the frame) needs the object beyond the
 // image: for an object whose box does not project entirely inside the image, rays are
@@ -34,8 +34,8 @@ struct MaskPassOptions {
   // Only what the proxy metrics need (the optimizer's evaluations): each instance's
   // visible and full areas, occlusion, scale class, pose and viewpoint, counted by the
   // same rays as a full pass, so equal to its; no masks, boxes, depth, id image or
-  // truncation (0). The full masks are counted per ray instead of painted into an
-  // objects x pixels block and encoded.
+  // truncation (0). The full masks are counted instead of painted into an objects x
+  // pixels block and encoded.
   bool metrics_only = false;
 };
 
