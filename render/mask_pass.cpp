@@ -65,10 +65,11 @@ PixelRect CandidatePixels(const Layout& layout, const PlacedObject& o) {
     v0 = std::min(v0, v);
     v1 = std::max(v1, v);
   }
+  if (!(u0 <= u1 && v0 <= v1)) return {0, 0, w, h};  // not finite
   // Pixel x's centre x + 0.5 lies in [u0, u1] for x in [u0 - 0.5, u1 - 0.5].
-  auto first = [](double a, int size) { return static_cast<int>(std::clamp(std::floor(a - 0.5) - 1, 0.0, 1.0 * size)); };
-  auto end = [](double b, int size) { return static_cast<int>(std::clamp(std::floor(b - 0.5) + 2, 0.0, 1.0 * size)); };
-  return {first(u0, w), first(v0, h), end(u1, w), end(v1, h)};
+  auto clamped = [](double x, int size) { return static_cast<int>(std::clamp(x, 0.0, 1.0 * size)); };
+  return {clamped(std::floor(u0 - 0.5) - 1, w), clamped(std::floor(v0 - 0.5) - 1, h),
+          clamped(std::floor(u1 - 0.5) + 2, w), clamped(std::floor(v1 - 0.5) + 2, h)};
 }
 
 // See the header: the share of the object's silhouette outside the image.

@@ -7,8 +7,8 @@
 // against a top-level scene of the placed objects (Embree instances of each model's
 // cached scene), nearest hit each; the nearest object, when nearer than the room, is the
 // visible one. The full mask of an object is where the same pixel-centre rays hit that
-// object alone (any hit), cast over the pixels its box projects to. One sample per pixel,
-// no anti-aliasing, as the reference's ID passes.
+// object alone (any hit), cast over the pixels its box projects to, and where it is
+// visible. One sample per pixel, no anti-aliasing, as the reference's ID passes.
 //
 // Truncation (the share of an object outside the frame) needs the object beyond the
 // image: for an object whose box does not project entirely inside the image, rays are
