@@ -28,6 +28,25 @@ inline RTCRayHit MakeRay(Vec3 origin, Vec3 direction, float tnear) {
   return r;
 }
 
+// Lane i of a 16-wide packet: a ray from `origin` along `direction` over [tnear, tfar].
+// V: Vec3 or Vec3f.
+template <class V>
+void SetRayLane(RTCRay16* r, int i, V origin, V direction, float tnear,
+                float tfar = std::numeric_limits<float>::infinity()) {
+  r->org_x[i] = static_cast<float>(origin.x);
+  r->org_y[i] = static_cast<float>(origin.y);
+  r->org_z[i] = static_cast<float>(origin.z);
+  r->dir_x[i] = static_cast<float>(direction.x);
+  r->dir_y[i] = static_cast<float>(direction.y);
+  r->dir_z[i] = static_cast<float>(direction.z);
+  r->tnear[i] = tnear;
+  r->tfar[i] = tfar;
+  r->time[i] = 0;
+  r->mask[i] = UINT32_MAX;
+  r->id[i] = 0;
+  r->flags[i] = 0;
+}
+
 // One instance of a bottom-level scene.
 struct SceneInstance {
   RTCScene scene = nullptr;

@@ -24,21 +24,6 @@ constexpr int kMaxTruncationSamples = 4096;
 constexpr int kTile = 4;
 constexpr int kLanes = kTile * kTile;
 
-void SetLane(RTCRay16* ray, int i, Vec3 origin, Vec3 direction, float tnear) {
-  ray->org_x[i] = static_cast<float>(origin.x);
-  ray->org_y[i] = static_cast<float>(origin.y);
-  ray->org_z[i] = static_cast<float>(origin.z);
-  ray->dir_x[i] = static_cast<float>(direction.x);
-  ray->dir_y[i] = static_cast<float>(direction.y);
-  ray->dir_z[i] = static_cast<float>(direction.z);
-  ray->tnear[i] = tnear;
-  ray->tfar[i] = kInfinity;
-  ray->time[i] = 0;
-  ray->mask[i] = UINT32_MAX;
-  ray->id[i] = 0;
-  ray->flags[i] = 0;
-}
-
 // The ray through the centre of pixel (x, y), unit length, as every pass casts it: a pixel
 // belongs to an object's full mask exactly when this ray hits the object. `length`: of the
 // unnormalised direction, whose camera-space z is -1 (depth = t / length).
@@ -177,7 +162,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
           const int x = x0 + i % kTile, y = tile_y * kTile + i / kTile;
           valid[i] = x < w && y < h ? -1 : 0;
           pixel[i] = valid[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
-          SetLane(&room_rays.ray, i, eye, PixelRay(cam, x, y, &length[i]), tnear);
+          SetRayLane(&room_rays.ray, i, eye, PixelRay(cam, x, y, &length[i]), tnear);
           room_rays.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
           room_rays.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
         }
@@ -236,7 +221,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
             const int x = x0 + i % kTile, y = y0 + i / kTile;
             valid[i] = x < rect.x1 && y < rect.y1 ? -1 : 0;
             pixel[i] = valid[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
-            SetLane(&rays, i, eye, PixelRay(cam, x, y, &length), tnear);
+            SetRayLane(&rays, i, eye, PixelRay(cam, x, y, &length), tnear);
           }
           rtcOccluded16(valid, scene.get(), &context, &rays);
           for (int i = 0; i < kLanes; ++i) {

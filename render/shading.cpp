@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "solid/formats/random.h"
+#include "instance_scene.h"
 #include "streams.h"
 #include "solid/formats/workers.h"
 
@@ -124,23 +125,8 @@ constexpr int kLanes = kTile * kTile;
 // Lights whose shadow answers a flat pixel may reuse (FilmSampling); any further ones always trace.
 constexpr size_t kReusedLights = 4;
 
-void SetRay(RTCRay16* r, int i, Vec3f origin, Vec3f dir, float tnear, float tfar) {
-  r->org_x[i] = origin.x;
-  r->org_y[i] = origin.y;
-  r->org_z[i] = origin.z;
-  r->dir_x[i] = dir.x;
-  r->dir_y[i] = dir.y;
-  r->dir_z[i] = dir.z;
-  r->tnear[i] = tnear;
-  r->tfar[i] = tfar;
-  r->time[i] = 0;
-  r->mask[i] = UINT32_MAX;
-  r->id[i] = 0;
-  r->flags[i] = 0;
-}
-
 void SetRayHit(RTCRayHit16* r, int i, Vec3f origin, Vec3f dir, float tnear, float tfar) {
-  SetRay(&r->ray, i, origin, dir, tnear, tfar);
+  SetRayLane(&r->ray, i, origin, dir, tnear, tfar);
   r->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
   r->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
 }
@@ -525,7 +511,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
                 continue;
               }
               traced[i] = -1;
-              SetRay(&shadow, i, lane.origin, w, 0.0f, d);
+              SetRayLane(&shadow, i, lane.origin, w, 0.0f, d);
             }
             count(traced);
             if (AnyValid(traced)) rtcOccluded16(traced, scene.scene, &secondary, &shadow);
