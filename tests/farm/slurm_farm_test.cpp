@@ -448,7 +448,7 @@ TEST_F(SlurmFarm, TasksRacingOnOneQueryShardAndAnIndexDuringTheFarm) {
   constexpr int kAttempts = 4;
   Submission array;
   pid_t writer = 0;
-  std::string stopped_task;
+  std::string stopped_task, held;
   for (int attempt = 1;; ++attempt) {
     out_ = work_ / fmt::format("dataset-{}", attempt);
     for (const fs::path& d : {out_ / "shards", out_ / "queries"}) fs::create_directories(d);
@@ -456,7 +456,7 @@ TEST_F(SlurmFarm, TasksRacingOnOneQueryShardAndAnIndexDuringTheFarm) {
     DirectoryWatch watch(paths.queries_dir());
     array = SubmitRender(fmt::format("0-{}%2", kShards - 1));
     ASSERT_FALSE(array.job.empty()) << array.sbatch->Output();
-    const std::string held = fmt::format("{}_{}", array.job, kShards - 1);
+    held = fmt::format("{}_{}", array.job, kShards - 1);
     const auto hold = cluster_->Run("scontrol hold " + held);
     ASSERT_EQ(hold.exit_status, 0) << hold.output;
 
@@ -475,7 +475,6 @@ TEST_F(SlurmFarm, TasksRacingOnOneQueryShardAndAnIndexDuringTheFarm) {
     array.sbatch->Wait();
   }
   const DatasetPaths paths(out_);
-  const std::string held = fmt::format("{}_{}", array.job, kShards - 1);
   ASSERT_TRUE(WaitFor([&] { return fs::exists(paths.query_shard(0)); }, std::chrono::seconds(120)))
       << "no other task published the query shard\n"
       << AllTaskLogs(array.job);
