@@ -50,6 +50,19 @@ gltf::Asset QuadAsset(double sx, double sz) {
   return a;
 }
 
+// A rectangle of sx by sy (world x, y) in the plane z = 0.
+gltf::Asset FloorQuadAsset(double sx, double sy) {
+  gltf::Primitive p;
+  for (int i = 0; i < 4; ++i) {
+    const double x = (i & 1 ? 0.5 : -0.5) * sx, y = (i & 2 ? 0.5 : -0.5) * sy;
+    p.positions.insert(p.positions.end(), {float(x), 0.0f, float(-y)});
+  }
+  p.indices = {0, 1, 3, 0, 3, 2};
+  gltf::Asset a;
+  a.nodes.push_back({"floor_quad", {p}, nlohmann::json::object()});
+  return a;
+}
+
 class Scene {
  public:
   Scene() {
@@ -166,6 +179,33 @@ TEST(MaskPass, ObjectCrossingTheBorderIsTruncatedNotOccluded) {
   EXPECT_EQ(q.visible_rle, q.full_rle);
   EXPECT_EQ(*q.occlusion, 0.0);  // clipping at the border is not occlusion
   EXPECT_NEAR(q.truncation, 0.5, 0.05);
+}
+
+// The full masks are traced over the pixels an object's box projects to; a box that
+// reaches behind the camera projects nowhere, and its object is traced over the whole image.
+TEST(MaskPass, ObjectReachingBehindTheCameraKeepsItsWholeFullMask) {
+  Scene scene;
+  // 0.7 m below the camera, from 1.2 m behind it to 3.8 m in front (y in [-6.2, -1.2]),
+  // x in [-1.27, 1.27]: no pixel centre falls exactly on an edge.
+  scene.Add(FloorQuadAsset(2.54, 5), {0, -3.7, 0.3});
+  // A square 2 m in front of the camera, above the quad's plane, hides part of it: what the
+  // full mask holds there, only the full pass can have found.
+  scene.Add(QuadAsset(1, 1), {0, -3, 0.85});
+  const MaskPassResult r = scene.Run();
+  const InstanceRecord& q = r.instances[0];
+  std::vector<uint8_t> expected(kWidth * kHeight, 0);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      // The pixel's ray from (0, -5, 1) along ((x + 0.5 - 32) / 64, 1, (24 - (y + 0.5)) / 64).
+      const double dx = (x + 0.5 - 32) / 64, dz = (24 - (y + 0.5)) / 64;
+      if (dz >= 0) continue;
+      const double t = -0.7 / dz, wx = t * dx, wy = -5 + t;
+      expected[y * kWidth + x] = std::fabs(wx) <= 1.27 && wy >= -6.2 && wy <= -1.2;
+    }
+  }
+  EXPECT_EQ(q.full_rle, Rle(expected));
+  EXPECT_EQ(q.visible_rle, Rle(AndNot(expected, RectMask(-0.5, 0.5, 0.35, 1.35, 2))));
+  EXPECT_GT(q.full_area, q.visible_area + 100);
 }
 
 TEST(MaskPass, ObjectBehindAWallIsInvisibleButKeepsItsFullMask) {
