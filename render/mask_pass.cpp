@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -33,6 +34,26 @@ Vec3 PixelRay(const Camera& cam, int x, int y, float* length) {
   return raw * (1.0 / Length(raw));
 }
 
+// The image-plane bounds of an object's box: nullopt when a corner is not in front of the
+// near plane (or projects to no finite point).
+struct ImageBounds {
+  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+};
+
+std::optional<ImageBounds> ProjectedBox(const Layout& layout, const PlacedObject& o) {
+  ImageBounds b;
+  for (int c = 0; c < 8; ++c) {
+    double u = 0, v = 0;
+    if (!Project(layout.camera, o.box.Corner(c), layout.near, &u, &v)) return std::nullopt;
+    b.u0 = std::min(b.u0, u);
+    b.u1 = std::max(b.u1, u);
+    b.v0 = std::min(b.v0, v);
+    b.v1 = std::max(b.v1, v);
+  }
+  if (!(b.u0 <= b.u1 && b.v0 <= b.v1)) return std::nullopt;
+  return b;
+}
+
 // Pixels [x0, x1) x [y0, y1) whose centre rays can hit an object: its box projected, a
 // pixel wider for rounding, or the whole image when the box reaches behind the near plane.
 struct PixelRect {
@@ -41,45 +62,23 @@ struct PixelRect {
 
 PixelRect CandidatePixels(const Layout& layout, const PlacedObject& o) {
   const int w = layout.width, h = layout.height;
-  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
-  for (int c = 0; c < 8; ++c) {
-    double u = 0, v = 0;
-    if (!Project(layout.camera, o.box.Corner(c), layout.near, &u, &v)) return {0, 0, w, h};
-    u0 = std::min(u0, u);
-    u1 = std::max(u1, u);
-    v0 = std::min(v0, v);
-    v1 = std::max(v1, v);
-  }
-  if (!(u0 <= u1 && v0 <= v1)) return {0, 0, w, h};  // not finite
+  const std::optional<ImageBounds> b = ProjectedBox(layout, o);
+  if (!b) return {0, 0, w, h};
   // Pixel x's centre x + 0.5 lies in [u0, u1] for x in [u0 - 0.5, u1 - 0.5].
   auto clamped = [](double x, int size) { return static_cast<int>(std::clamp(x, 0.0, 1.0 * size)); };
-  return {clamped(std::floor(u0 - 0.5) - 1, w), clamped(std::floor(v0 - 0.5) - 1, h),
-          clamped(std::floor(u1 - 0.5) + 2, w), clamped(std::floor(v1 - 0.5) + 2, h)};
+  return {clamped(std::floor(b->u0 - 0.5) - 1, w), clamped(std::floor(b->v0 - 0.5) - 1, h),
+          clamped(std::floor(b->u1 - 0.5) + 2, w), clamped(std::floor(b->v1 - 0.5) + 2, h)};
 }
 
 // See the header: the share of the object's silhouette outside the image.
 double Truncation(const Layout& layout, const PlacedObject& o) {
   const Camera& cam = layout.camera;
   const double w = layout.width, h = layout.height;
-  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
-  bool in_front = true;
-  for (int c = 0; c < 8; ++c) {
-    double u = 0, v = 0;
-    if (!Project(cam, o.box.Corner(c), layout.near, &u, &v)) {
-      in_front = false;
-      break;
-    }
-    u0 = std::min(u0, u);
-    u1 = std::max(u1, u);
-    v0 = std::min(v0, v);
-    v1 = std::max(v1, v);
-  }
-  if (in_front && u0 >= 0 && u1 <= w && v0 >= 0 && v1 <= h) return 0;
-  if (!in_front) {
-    u0 = -w, u1 = 2 * w, v0 = -h, v1 = 2 * h;
-  } else {
-    u0 = std::max(u0, -w), u1 = std::min(u1, 2 * w), v0 = std::max(v0, -h), v1 = std::min(v1, 2 * h);
-  }
+  const std::optional<ImageBounds> b = ProjectedBox(layout, o);
+  if (b && b->u0 >= 0 && b->u1 <= w && b->v0 >= 0 && b->v1 <= h) return 0;
+  // The box clipped to a 3x3-image window, or that whole window.
+  const double u0 = b ? std::max(b->u0, -w) : -w, u1 = b ? std::min(b->u1, 2 * w) : 2 * w;
+  const double v0 = b ? std::max(b->v0, -h) : -h, v1 = b ? std::min(b->v1, 2 * h) : 2 * h;
   const double area = (u1 - u0) * (v1 - v0);
   if (!(area > 0)) return 0;
   const double stride = std::max(1.0, std::sqrt(area / kMaxTruncationSamples));
@@ -198,7 +197,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
   // pass found (in about one pixel in 40 layouts at 640x480), so each full mask also takes
   // its object's visible pixels: it always contains the visible mask.
   std::atomic<size_t> next_object{0};
-  std::vector<uint8_t> visible_outside(objects, 0);
+  std::atomic<bool> visible_outside_a_box{false};
   auto trace_full = [&] {
     // Incoherent (the default): with the coherent flag, Embree 3.13.5's rtcOccluded16 never
     // returned on a one-instance scene (MaskPass tests, after another layout's pass).
@@ -236,12 +235,12 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
         }
       }
       full_counts[k] = count + (visible_counts[k] - visible_inside);
-      visible_outside[k] = visible_counts[k] != visible_inside;
+      if (visible_counts[k] != visible_inside) visible_outside_a_box = true;
     }
   };
   RunOnThreads(std::clamp(options.threads, 1, std::max<int>(1, static_cast<int>(objects))), trace_full);
   // Visible pixels outside an object's projected box: none unless rounding put them there.
-  if (masks && std::find(visible_outside.begin(), visible_outside.end(), 1) != visible_outside.end()) {
+  if (masks && visible_outside_a_box) {
     for (size_t p = 0; p < pixels; ++p) {
       if (ids[p] != 0) full_rows[ids[p] - 1][p] = 1;
     }
