@@ -35,7 +35,9 @@ struct MaskPassOptions {
   // visible and full areas, occlusion, scale class, pose and viewpoint, counted by the
   // same rays as a full pass, so equal to its; no masks, boxes, depth, id image or
   // truncation (0). The full masks are counted instead of painted into an objects x
-  // pixels block and encoded.
+  // pixels block and encoded, and only for objects with min_visible_pixels visible
+  // pixels or more: the others count for no metric, and their full area is left at
+  // their visible area.
   bool metrics_only = false;
 };
 
