@@ -263,6 +263,15 @@ Result<OptimizeOptions> TwoRoundsOfAttempts(int max_evaluations) {
   return o;
 }
 
+// 9 objects per image within 0.25, with a search margin of 0.2 so that a first
+// confirmation near the target is outside the margin.
+Result<OptimizeOptions> NineObjectsOutsideTheMargin() {
+  SOLID_ASSIGN_OR_RETURN(OptimizeOptions o, TwoRoundsOfAttempts(40));
+  o.targets = {{Metric::kObjectsPerImage, 9, 0.25}};
+  o.search_margin = 0.2;
+  return o;
+}
+
 // The second round aims, on its common seeds, at the targets shifted by how far the first
 // round's confirmation (fresh seeds) was from them at the same point: its first evaluation
 // then scores exactly as that confirmation does against the real targets.
@@ -349,11 +358,9 @@ TEST(Optimize, NoisyStartDifferencesTwiceAsFar) {
 // report gives the last corrected point with its own confirmation when that one meets the
 // target.
 TEST(Optimize, ConfirmationNearTheTargetsIsCorrectedOnFreshLayouts) {
-  Result<OptimizeOptions> options = TwoRoundsOfAttempts(40);
+  Result<OptimizeOptions> options = NineObjectsOutsideTheMargin();
   ASSERT_OK(options.status());
   OptimizeOptions& o = *options;
-  o.targets = {{Metric::kObjectsPerImage, 9, 0.25}};
-  o.search_margin = 0.2;  // so that the first confirmation is outside it
   o.max_rounds = 1;
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
@@ -389,11 +396,9 @@ TEST(Optimize, ConfirmationNearTheTargetsIsCorrectedOnFreshLayouts) {
 // left ends the correction, and that point stays the fit, with its own confirmation: with
 // seed 9 (found by trying seeds 1-24; 1 of 24 takes such a step) the one step overshoots.
 TEST(Optimize, CorrectionStepFartherFromTheTargetsIsDiscarded) {
-  Result<OptimizeOptions> options = TwoRoundsOfAttempts(40);
+  Result<OptimizeOptions> options = NineObjectsOutsideTheMargin();
   ASSERT_OK(options.status());
   OptimizeOptions& o = *options;
-  o.targets = {{Metric::kObjectsPerImage, 9, 0.25}};
-  o.search_margin = 0.2;
   o.max_rounds = 1;
   o.seed = 9;
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
@@ -414,11 +419,9 @@ TEST(Optimize, CorrectionStepFartherFromTheTargetsIsDiscarded) {
 // another round: that round searches again on twice the layouts, and no correction step
 // is taken from the miss (the last Jacobian is too noisy to trust from there).
 TEST(Optimize, MissedConfirmationWithRoomForARoundSearchesAgain) {
-  Result<OptimizeOptions> options = TwoRoundsOfAttempts(40);
+  Result<OptimizeOptions> options = NineObjectsOutsideTheMargin();
   ASSERT_OK(options.status());
   OptimizeOptions& o = *options;
-  o.targets = {{Metric::kObjectsPerImage, 9, 0.25}};
-  o.search_margin = 0.2;
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
   ASSERT_EQ(r->rounds, 2) << r->stop_reason;
