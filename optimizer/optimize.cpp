@@ -444,7 +444,7 @@ struct Search {
     // residuals' largest standard error at 100 layouts is 0.8-1.0 tolerances; a start
     // measured well above that differences twice as far. more-objects (the count's 1.9 at
     // 100 layouts): with the narrow steps its Jacobians were mostly noise and the search
-    // stalled 2-3 tolerances from the targets; with the wide ones it met the row in 39 s.
+    // stalled 2-3 tolerances from the targets; with the wide ones it met the row in 39-48 s.
     constexpr double kNoisyStart = 1.5;  // tolerances
     const double widening = LargestStandardError(report.search_metrics, search_targets) > kNoisyStart ? 2.0 : 1.0;
     const size_t n = dims.size();
