@@ -603,11 +603,16 @@ struct Search {
       const std::vector<double> carried = model.Predict(d.data());
       SOLID_ASSIGN_OR_RETURN(Evaluation stepped, Confirm(params, next, "correct"));
       ++corrections;
-      // A step whose confirmation misses and is farther from the targets than the point it
-      // left shows that the linear model is wrong here: further steps would follow it
-      // (more-objects, seed 2: three steps took the count from 13.5 to 18.0). The point
-      // it left stays the fit.
-      if (!Within(stepped.metrics, options.targets, 1.0) &&
+      // While no confirmation has met every target, a step whose confirmation misses and is
+      // farther from the targets than the point it left shows that the linear model is wrong
+      // here: further steps would follow it (more-objects, seed 2: three steps took the
+      // count from 13.5 to 18.0). The point it left stays the fit. Once one has met, steps
+      // go on: that point is reported unless a later one meets (met_earlier), and the pooled
+      // aim learns from the miss (discarding there cost scale-distribution, seed 1, the
+      // better-centred point a later step found).
+      const bool any_met = std::any_of(report.confirmations.begin(), report.confirmations.end() - 1,
+                                       [](const ConfirmationRow& c) { return c.met; });
+      if (!any_met && !Within(stepped.metrics, options.targets, 1.0) &&
           Objective(stepped.metrics, options.targets) > Objective(confirmation.metrics, options.targets)) {
         correction_discarded = true;
         break;
