@@ -855,8 +855,8 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
       if (confirmed_met && !s.RoomForAnotherRound()) break;
     }
     if (s.corrections > 0) {
-      r.stop_reason += fmt::format("; then {} correction step(s) on the confirmations{}", s.corrections,
-                                   s.correction_discarded ? ", the last discarded: its confirmation was farther from the targets" : "");
+      r.stop_reason += fmt::format("; then {} correction step(s) on the confirmations", s.corrections);
+      if (s.correction_discarded) r.stop_reason += ", the last discarded: its confirmation was farther from the targets";
     }
     // Each round aims closer than the last, so its point is the one reported, unless its
     // confirmation missed where an earlier round's met every target. (Choosing the best of
