@@ -125,10 +125,14 @@ double SquaredNorm(const std::vector<double>& v) {
   return sum;
 }
 
-// The largest standard error among the measurement's residuals, in tolerances.
+// The standard error of the measurement's residual for `t`, in tolerances.
+double StandardError(const ProxyMetrics& m, const Target& t) {
+  return MetricOf(m, t.metric).ci95 / 1.96 / t.tolerance;
+}
+
 double LargestStandardError(const ProxyMetrics& m, const std::vector<Target>& targets) {
   double largest = 0;
-  for (const Target& t : targets) largest = std::max(largest, MetricOf(m, t.metric).ci95 / 1.96 / t.tolerance);
+  for (const Target& t : targets) largest = std::max(largest, StandardError(m, t));
   return largest;
 }
 
@@ -586,7 +590,7 @@ struct Search {
       const double pooled = std::sqrt(static_cast<double>(options.confirm_layouts) / aim_layouts);
       for (size_t i = 0; i < aim.size(); ++i) {
         const Target& t = options.targets[i];
-        const double standard_error = MetricOf(confirmation.metrics, t.metric).ci95 / 1.96 * pooled / t.tolerance;
+        const double standard_error = StandardError(confirmation.metrics, t) * pooled;
         if (std::abs(aim[i]) > std::max(options.search_margin, standard_error)) return false;
       }
       return true;
