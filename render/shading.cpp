@@ -19,11 +19,15 @@ namespace {
 
 constexpr float kPi = std::numbers::pi_v<float>;
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
-// A single sample brighter than this would whiten its pixel alone (a firefly).
 constexpr float kMaxSampleRadiance = 4.0f;
 constexpr float kMaxSpecularExponent = 1024.0f;
 // A relative depth step between neighbouring pixel centres that makes both edge pixels.
 constexpr float kDepthStep = 0.02f;
+// FilterFlatLighting: the half-width of its box, the least cosine between the normals of
+// two pixels it averages, and the base colour below which a pixel's lighting is not used.
+constexpr int kFilterRadius = 2;
+constexpr float kFilterNormalCos = 0.906f;  // 25 degrees
+constexpr float kDarkAlbedo = 1e-3f;
 
 const std::array<float, 256>& SrgbTable() {
   static const std::array<float, 256> table = [] {
@@ -65,6 +69,55 @@ void Strata(int n, int* nx, int* ny) {
   while (n % x != 0) --x;
   *nx = x;
   *ny = n / x;
+}
+
+// A point on `light`: its centre, or on an area light the point of strata sample a.
+Vec3f LightPoint(const ShadingLight& light, std::array<float, 2> a) {
+  return light.position + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
+}
+
+// What a light sends from one of its points to a surface point, before its shadow ray.
+struct LightRay {
+  Vec3f direction;
+  float distance = 0, irradiance = 0;
+  bool valid = false;  // the point faces the surface and lies above it
+};
+
+LightRay TowardsLight(const ShadingLight& light, Vec3f point, Vec3f origin, Vec3f n, Vec3f ng) {
+  LightRay out;
+  Vec3f w = point - origin;
+  const float d2 = std::max(Dot(w, w), 1e-4f);
+  const float d = std::sqrt(d2);
+  w = w * (1 / d);
+  const float cos_s = Dot(n, w);
+  // Below the geometric surface the shadow ray would hit its own triangle.
+  if (cos_s <= 0 || Dot(ng, w) <= 0) return out;
+  // Cycles: an area light's radiance is P / (4 A); a point light's intensity P / (4 pi^2).
+  if (light.area) {
+    const float cos_l = -Dot(light.normal, w);
+    if (cos_l <= 0) return out;
+    out.irradiance = light.power_w / 4 * cos_l * cos_s / d2;
+  } else {
+    out.irradiance = light.power_w / (4 * kPi * kPi) * cos_s / d2;
+  }
+  out.direction = w;
+  out.distance = d;
+  out.valid = true;
+  return out;
+}
+
+// A single sample brighter than kMaxSampleRadiance would whiten its pixel alone (a firefly).
+Vec3f Clamped(Vec3f radiance) {
+  return {std::min(radiance.x, kMaxSampleRadiance), std::min(radiance.y, kMaxSampleRadiance),
+          std::min(radiance.z, kMaxSampleRadiance)};
+}
+
+// A direction of the cosine-weighted hemisphere around unit n, from sample a.
+Vec3f CosineDirection(Vec3f n, std::array<float, 2> a) {
+  const float r = std::sqrt(a[0]), phi = 2 * kPi * a[1];
+  Vec3f t, b;
+  Basis(n, &t, &b);
+  return t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * std::sqrt(1 - a[0]);
 }
 
 struct Hit {
@@ -122,9 +175,6 @@ Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames,
 // rays: a tile's rays are coherent enough that packets beat single rays by far.
 constexpr int kTile = 4;
 constexpr int kLanes = kTile * kTile;
-// Lights whose shadow answers a flat pixel may reuse (FilmSampling); any further ones always trace.
-constexpr size_t kReusedLights = 4;
-
 void SetRayHit(RTCRayHit16* r, int i, Vec3f origin, Vec3f dir, float tnear, float tfar) {
   SetRayLane(&r->ray, i, origin, dir, tnear, tfar);
   r->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
@@ -143,11 +193,15 @@ bool AnyValid(const int* valid) {
 // stratified over the pixel too without correlating with the jitter.
 class PixelSampler {
  public:
-  PixelSampler(int nx, int ny, int dimensions) : nx_(nx), ny_(ny), dims_(dimensions) {
-    perm_.resize(static_cast<size_t>(dimensions) * nx * ny);
+  // For up to `samples` samples of each of `dimensions` 2D dimensions.
+  PixelSampler(int samples, int dimensions) : dims_(dimensions) {
+    perm_.resize(static_cast<size_t>(dimensions) * samples);
   }
-  void Start(Rng* rng) {
+  // Starts a pixel of nx x ny samples (at most `samples`) drawing from `rng`.
+  void Start(Rng* rng, int nx, int ny) {
     rng_ = rng;
+    nx_ = nx;
+    ny_ = ny;
     const int n = nx_ * ny_;
     for (int d = 0; d < dims_; ++d) {
       uint16_t* p = &perm_[static_cast<size_t>(d) * n];
@@ -169,7 +223,7 @@ class PixelSampler {
   }
 
  private:
-  int nx_, ny_, dims_;
+  int nx_ = 1, ny_ = 1, dims_;
   std::vector<uint16_t> perm_;
   Rng* rng_ = nullptr;
 };
@@ -351,15 +405,83 @@ std::vector<uint8_t> EdgePixels(const MaskPassResult& masks) {
   return edges;
 }
 
+void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
+  const int width = film->width, height = film->height;
+  // Pixels without a surface, and dark base colours (whose lighting would be noise over
+  // a near-zero divisor), neither take nor give.
+  auto usable = [&](size_t p) {
+    const Vec3f a = guides.albedo[p];
+    return guides.surface[p] != kNoSurface && a.x > kDarkAlbedo && a.y > kDarkAlbedo && a.z > kDarkAlbedo;
+  };
+  // Whether usable pixel q, `steps` pixels from usable pixel p along a row or a column, lies on p's surface.
+  auto same_surface = [&](size_t p, size_t q, int steps) {
+    return guides.surface[q] == guides.surface[p] &&
+           std::fabs(guides.depth[q] - guides.depth[p]) <= kDepthStep * static_cast<float>(steps) * guides.depth[p] &&
+           Dot(guides.normal[q], guides.normal[p]) >= kFilterNormalCos;
+  };
+  // Separable: a box of 2 kFilterRadius + 1 pixels along rows, then along columns, each
+  // over the pixels on the same surface. On an open surface that is the square box; at
+  // its borders and around other objects it shrinks to what lies on the surface.
+  std::vector<Vec3f> across(film->rgb.size() / 3);
+  auto pass = [&](bool along_rows) {
+    std::atomic<int> next{0};
+    const int lines = along_rows ? height : width, length = along_rows ? width : height;
+    RunOnThreads(std::clamp(threads, 1, lines), [&] {
+      for (int line; (line = next.fetch_add(1, std::memory_order_relaxed)) < lines;) {
+        auto at = [&](int k) {
+          return along_rows ? static_cast<size_t>(line) * width + k : static_cast<size_t>(k) * width + line;
+        };
+        for (int k = 0; k < length; ++k) {
+          const size_t p = at(k);
+          if (!usable(p)) continue;
+          Vec3f sum;
+          int n = 0;
+          for (int d = std::max(-kFilterRadius, -k); d <= kFilterRadius && k + d < length; ++d) {
+            const size_t q = at(k + d);
+            if (!usable(q) || !same_surface(p, q, std::abs(d))) continue;
+            if (along_rows) {
+              const Vec3f a = guides.albedo[q];
+              sum = sum + Vec3f{film->rgb[3 * q] / a.x, film->rgb[3 * q + 1] / a.y, film->rgb[3 * q + 2] / a.z};
+            } else {
+              sum = sum + across[q];
+            }
+            ++n;
+          }
+          const Vec3f mean = sum * (1.0f / static_cast<float>(n));
+          if (along_rows) {
+            across[p] = mean;
+          } else {
+            const Vec3f radiance = mean * guides.albedo[p];
+            film->rgb[3 * p] = radiance.x;
+            film->rgb[3 * p + 1] = radiance.y;
+            film->rgb[3 * p + 2] = radiance.z;
+          }
+        }
+      }
+    });
+  };
+  pass(true);
+  pass(false);
+}
+
 Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near,
                 const FilmSampling& sampling, int threads, uint64_t seed) {
   const int spp = sampling.spp;
   const bool adaptive = !sampling.edges.empty();
+  const int flat_spp = FlatSamples(spp);
   Film film;
   film.width = width;
   film.height = height;
-  film.rgb.assign(static_cast<size_t>(width) * height * 3, 0.0f);
-  film.covered.assign(static_cast<size_t>(width) * height, 0);
+  const size_t pixels = static_cast<size_t>(width) * height;
+  film.rgb.assign(pixels * 3, 0.0f);
+  film.covered.assign(pixels, 0);
+  FlatGuides guides;
+  if (adaptive) {
+    guides.surface.assign(pixels, kNoSurface);
+    guides.depth.assign(pixels, 0.0f);
+    guides.normal.assign(pixels, Vec3f{});
+    guides.albedo.assign(pixels, Vec3f{});
+  }
   std::vector<SurfaceFrames> frames;
   for (const ShadingSurface& s : scene.surfaces) {
     SurfaceFrames f{};
@@ -368,8 +490,9 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     f.translation = ToFloat(s.translation);
     frames.push_back(f);
   }
-  int nx = 1, ny = 1;
+  int nx = 1, ny = 1, flat_nx = 1, flat_ny = 1;
   Strata(spp, &nx, &ny);
+  Strata(flat_spp, &flat_nx, &flat_ny);
   const Vec3f eye = ToFloat(CameraPosition(camera));
   const int dims = static_cast<int>(scene.lights.size()) + 1;  // + ambient occlusion
   const int tiles_x = (width + kTile - 1) / kTile, tile_rows = (height + kTile - 1) / kTile;
@@ -378,16 +501,21 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
 
   // What one lane (pixel) carries from its camera ray's hit to its light and ambient rays.
   struct Lane {
-    Vec3f sum, radiance, diffuse, f0, n, ng, wo, origin, ambient;
-    float exponent = 0, specular_norm = 0;
+    Vec3f sum, radiance, diffuse, f0, n, ng, wo, origin, ambient, base;
+    float exponent = 0, specular_norm = 0, depth = 0;
+    uint32_t instance = 0;
+    int samples = 0;
     bool covered = false, ambient_lit = false, edge = true;
-    // A flat pixel whose first two samples agreed on every light and left the ambient
-    // range: its later samples would add nothing new, so it takes the mean of those two.
-    bool settled = false;
-    // Of a flat pixel's first two samples: per light, whether its shadow ray reached the
-    // light (1), was blocked (0) or was not traced (-1); whether the ambient ray left its range.
-    std::array<std::array<int8_t, 2>, kReusedLights> reached;
-    std::array<bool, 2> open;
+
+    // Light arriving along wi with this irradiance, reflected towards the camera.
+    Vec3f Reflected(Vec3f wi, float irradiance) const {
+      const Vec3f half = Normalized(wi + wo);
+      const float spec = specular_norm * std::pow(std::max(Dot(n, half), 0.0f), exponent);
+      return (diffuse + f0 * spec) * irradiance;
+    }
+    // Obscurance rather than binary occlusion: a blocker at distance t lets t / range
+    // through (open = t / range), which is much less noisy at a few rays per pixel.
+    Vec3f Ambient(float open) const { return diffuse * (kPi * open) * ambient; }
   };
 
   auto work = [&] {
@@ -398,7 +526,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     rtcInitIntersectContext(&secondary);
     // Each pixel keeps its own generator and strata, so a pixel's draws do not depend on
     // its tile, its thread or the other pixels' hits.
-    std::vector<PixelSampler> samplers(kLanes, PixelSampler(nx, ny, dims));
+    std::vector<PixelSampler> samplers(kLanes, PixelSampler(std::max(spp, flat_spp), dims));
     std::vector<Rng> rngs(kLanes, Rng(0, kShadingStream));
     std::array<Lane, kLanes> lanes;
     alignas(64) int inside[kLanes], hit[kLanes], active[kLanes], valid[kLanes], traced[kLanes];
@@ -412,21 +540,28 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     };
     for (int ty; (ty = next_row.fetch_add(1, std::memory_order_relaxed)) < tile_rows;) {
       for (int tx = 0; tx < tiles_x; ++tx) {
+        int tile_spp = 0;
         for (int i = 0; i < kLanes; ++i) {
           const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
           inside[i] = x < width && y < height ? -1 : 0;
           hit[i] = 0;
           if (!inside[i]) continue;
           rngs[i] = Rng(MixSeed(seed, static_cast<size_t>(y) * width + x), kShadingStream);
-          samplers[i].Start(&rngs[i]);
           lanes[i] = Lane{};
           lanes[i].edge = !adaptive || sampling.edges[static_cast<size_t>(y) * width + x] != 0;
+          lanes[i].samples = lanes[i].edge ? spp : flat_spp;
+          if (lanes[i].edge) {
+            samplers[i].Start(&rngs[i], nx, ny);
+          } else {
+            samplers[i].Start(&rngs[i], flat_nx, flat_ny);
+          }
+          tile_spp = std::max(tile_spp, lanes[i].samples);
         }
-        for (int s = 0; s < spp; ++s) {
+        for (int s = 0; s < tile_spp; ++s) {
           // Edge pixels trace a camera ray per sample; flat ones one, through their centre,
           // whose hit all their samples share.
           for (int i = 0; i < kLanes; ++i) {
-            traced[i] = inside[i] && (s == 0 || lanes[i].edge) ? -1 : 0;
+            traced[i] = inside[i] && (s == 0 || (lanes[i].edge && s < lanes[i].samples)) ? -1 : 0;
             if (!traced[i]) continue;
             const auto jitter = lanes[i].edge ? samplers[i].Get(s, -1) : std::array<float, 2>{0.5f, 0.5f};
             const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
@@ -436,31 +571,34 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
           count(traced);
           if (AnyValid(traced)) rtcIntersect16(traced, scene.scene, &primary, &rays);
           for (int i = 0; i < kLanes; ++i) {
-            if (!inside[i]) continue;
+            active[i] = 0;
+            if (!inside[i] || s >= lanes[i].samples) continue;
             Lane& lane = lanes[i];
             if (traced[i]) hit[i] = rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
             if (!hit[i]) {
               lane.sum = lane.sum + scene.background;
               continue;
             }
+            active[i] = -1;
             lane.radiance = {};
             if (!traced[i]) continue;
             lane.covered = true;
+            lane.instance = rays.hit.instID[0][i];
+            lane.depth = rays.ray.tfar[i];
             const Vec3f dir{rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
             const Hit h = Surface(scene, frames, rays.hit.instID[0][i], rays.hit.primID[i], rays.hit.u[i],
                                   rays.hit.v[i], dir);
-            Vec3f base;
             if (lane.edge) {
-              base = BaseColor(h.material, h.textures, h.u, h.v);
+              lane.base = BaseColor(h.material, h.textures, h.u, h.v);
             } else {
               const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
-              base = FootprintBaseColor(h, eye, ToFloat(RayDirection(camera, x + 1.5, y + 0.5)),
-                                        ToFloat(RayDirection(camera, x + 0.5, y + 1.5)));
+              lane.base = FootprintBaseColor(h, eye, ToFloat(RayDirection(camera, x + 1.5, y + 0.5)),
+                                             ToFloat(RayDirection(camera, x + 0.5, y + 1.5)));
             }
             const float metallic = h.material != nullptr ? std::clamp(h.material->metallic, 0.0f, 1.0f) : 0.0f;
             const float roughness = h.material != nullptr ? std::clamp(h.material->roughness, 0.0f, 1.0f) : 1.0f;
-            lane.diffuse = base * ((1 - metallic) / kPi);
-            lane.f0 = Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + base * metallic;
+            lane.diffuse = lane.base * ((1 - metallic) / kPi);
+            lane.f0 = Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + lane.base * metallic;
             const float alpha2 = std::max(roughness * roughness * roughness * roughness, 1e-6f);
             lane.exponent = std::clamp(2.0f / alpha2 - 2.0f, 1.0f, kMaxSpecularExponent);
             lane.specular_norm = (lane.exponent + 8) / (8 * kPi);
@@ -472,58 +610,27 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             lane.ambient = scene.ambient + scene.sky * ((1 + lane.n.z) / 2);
             lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
           }
-          for (int i = 0; i < kLanes; ++i) active[i] = hit[i] && !lanes[i].settled ? -1 : 0;
           if (!AnyValid(active)) continue;
           for (size_t l = 0; l < scene.lights.size(); ++l) {
             const ShadingLight& light = scene.lights[l];
             for (int i = 0; i < kLanes; ++i) {
               valid[i] = 0;
-              traced[i] = 0;
               if (!active[i]) continue;
               Lane& lane = lanes[i];
-              Vec3f point = light.position;
-              if (light.area) {
-                const auto a = samplers[i].Get(s, static_cast<int>(l));
-                point = point + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
-              }
-              Vec3f w = point - lane.origin;
-              const float d2 = std::max(Dot(w, w), 1e-4f);
-              const float d = std::sqrt(d2);
-              w = w * (1 / d);
-              const float cos_s = Dot(lane.n, w);
-              // Below the geometric surface the shadow ray would hit its own triangle.
-              if (cos_s <= 0 || Dot(lane.ng, w) <= 0) continue;
-              // Cycles: an area light's radiance is P / (4 A); a point light's intensity P / (4 pi^2).
-              if (light.area) {
-                const float cos_l = -Dot(light.normal, w);
-                if (cos_l <= 0) continue;
-                irradiance[i] = light.power_w / 4 * cos_l * cos_s / d2;
-              } else {
-                irradiance[i] = light.power_w / (4 * kPi * kPi) * cos_s / d2;
-              }
-              wi[i] = w;
+              const Vec3f point =
+                  light.area ? LightPoint(light, samplers[i].Get(s, static_cast<int>(l))) : light.position;
+              const LightRay ray = TowardsLight(light, point, lane.origin, lane.n, lane.ng);
+              if (!ray.valid) continue;
+              irradiance[i] = ray.irradiance;
+              wi[i] = ray.direction;
               valid[i] = -1;
-              // Outside penumbrae a flat pixel's first two shadow rays agree, and so would
-              // the rest: those reuse the answer instead of tracing.
-              if (!lane.edge && s >= 2 && l < kReusedLights && lane.reached[l][0] >= 0 &&
-                  lane.reached[l][0] == lane.reached[l][1]) {
-                if (lane.reached[l][0] == 0) valid[i] = 0;
-                continue;
-              }
-              traced[i] = -1;
-              SetRayLane(&shadow, i, lane.origin, w, 0.0f, d);
+              SetRayLane(&shadow, i, lane.origin, ray.direction, 0.0f, ray.distance);
             }
-            count(traced);
-            if (AnyValid(traced)) rtcOccluded16(traced, scene.scene, &secondary, &shadow);
+            count(valid);
+            if (AnyValid(valid)) rtcOccluded16(valid, scene.scene, &secondary, &shadow);
             for (int i = 0; i < kLanes; ++i) {
-              if (!active[i]) continue;
-              Lane& lane = lanes[i];
-              if (traced[i] && shadow.tfar[i] < 0) valid[i] = 0;
-              if (!lane.edge && s < 2 && l < kReusedLights) lane.reached[l][s] = traced[i] ? (valid[i] ? 1 : 0) : -1;
-              if (!valid[i]) continue;
-              const Vec3f half = Normalized(wi[i] + lane.wo);
-              const float spec = lane.specular_norm * std::pow(std::max(Dot(lane.n, half), 0.0f), lane.exponent);
-              lane.radiance = lane.radiance + (lane.diffuse + lane.f0 * spec) * irradiance[i];
+              if (!valid[i] || shadow.tfar[i] < 0) continue;
+              lanes[i].radiance = lanes[i].radiance + lanes[i].Reflected(wi[i], irradiance[i]);
             }
           }
           for (int i = 0; i < kLanes; ++i) {
@@ -532,14 +639,8 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             if (!active[i]) continue;
             Lane& lane = lanes[i];
             if (!lane.ambient_lit) continue;
-            const auto a = samplers[i].Get(s, dims - 1);
+            const Vec3f wa = CosineDirection(lane.n, samplers[i].Get(s, dims - 1));
             valid[i] = -1;
-            // A flat pixel whose first two ambient rays left their range is open.
-            if (!lane.edge && s >= 2 && lane.open[0] && lane.open[1]) continue;
-            const float r = std::sqrt(a[0]), phi = 2 * kPi * a[1];
-            Vec3f t, b;
-            Basis(lane.n, &t, &b);
-            const Vec3f wa = t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + lane.n * std::sqrt(1 - a[0]);
             // A direction under the geometric surface (smooth-shaded silhouettes) counts as open.
             if (Dot(wa, lane.ng) <= 0) continue;
             SetRayHit(&rays, i, lane.origin, wa, 0.0f, scene.ambient_occlusion_m);
@@ -551,33 +652,27 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             if (!active[i]) continue;
             Lane& lane = lanes[i];
             if (valid[i]) {
-              // Obscurance rather than binary occlusion: a blocker at distance t lets
-              // t / range through, which is much less noisy at a few rays per pixel.
               const bool blocked = traced[i] && rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
-              const float open = blocked ? rays.ray.tfar[i] / scene.ambient_occlusion_m : 1.0f;
-              if (s < 2) lane.open[s] = !blocked;
-              lane.radiance = lane.radiance + lane.diffuse * (kPi * open) * lane.ambient;
+              lane.radiance = lane.radiance + lane.Ambient(blocked ? rays.ray.tfar[i] / scene.ambient_occlusion_m : 1.0f);
             }
-            lane.sum = lane.sum + Vec3f{std::min(lane.radiance.x, kMaxSampleRadiance),
-                                        std::min(lane.radiance.y, kMaxSampleRadiance),
-                                        std::min(lane.radiance.z, kMaxSampleRadiance)};
-            if (s == 1 && spp > 2 && !lane.edge) {
-              bool agreed = !lane.ambient_lit || (lane.open[0] && lane.open[1]);
-              for (size_t l = 0; l < scene.lights.size() && agreed; ++l) {
-                agreed = l < kReusedLights && lane.reached[l][0] == lane.reached[l][1];
-              }
-              lane.settled = agreed;
-            }
+            lane.sum = lane.sum + Clamped(lane.radiance);
           }
         }
         for (int i = 0; i < kLanes; ++i) {
           if (!inside[i]) continue;
-          const float inv = 1.0f / static_cast<float>(lanes[i].settled ? 2 : spp);
+          const Lane& lane = lanes[i];
+          const float inv = 1.0f / static_cast<float>(lane.samples);
           const size_t pixel = static_cast<size_t>(ty * kTile + i / kTile) * width + tx * kTile + i % kTile;
-          film.rgb[3 * pixel] = lanes[i].sum.x * inv;
-          film.rgb[3 * pixel + 1] = lanes[i].sum.y * inv;
-          film.rgb[3 * pixel + 2] = lanes[i].sum.z * inv;
-          film.covered[pixel] = lanes[i].covered ? 1 : 0;
+          film.rgb[3 * pixel] = lane.sum.x * inv;
+          film.rgb[3 * pixel + 1] = lane.sum.y * inv;
+          film.rgb[3 * pixel + 2] = lane.sum.z * inv;
+          film.covered[pixel] = lane.covered ? 1 : 0;
+          if (adaptive && !lane.edge && lane.covered) {
+            guides.surface[pixel] = lane.instance;
+            guides.depth[pixel] = lane.depth;
+            guides.normal[pixel] = lane.n;
+            guides.albedo[pixel] = lane.base;
+          }
         }
       }
     }
@@ -585,6 +680,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
   };
   RunOnThreads(std::clamp(threads, 1, std::max(1, tile_rows)), work);
   film.rays = total_rays;
+  if (adaptive) FilterFlatLighting(guides, threads, &film);
   return film;
 }
 

@@ -5,6 +5,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -89,22 +90,43 @@ struct Film {
   uint64_t rays = 0;  // traced: camera, shadow and ambient
 };
 
-// How a film spends its rays. Every pixel gets spp samples of each light and of the
-// ambient term, stratified. An edge pixel traces a camera ray per sample (stratified
-// jitter, a box filter) and lights each hit with one shadow ray per light and one ambient
-// ray. A flat pixel traces one camera ray, through its centre, takes its base colour as
-// the mean of 2x2 texture taps over the pixel's footprint, and shares that hit among its
-// samples; from the third sample on, a light whose first two shadow rays agree (both
-// reach it, or both are blocked) reuses that answer instead of tracing, and so does an
-// ambient term whose first two rays both left their range (open); the light points and
-// ambient directions are still drawn per sample. A flat pixel where all of them agree
-// stops after two samples and takes their mean: what varies over its later samples is
-// then only the unoccluded light over a small light's area, which its strata barely change.
+// How a film spends its rays. A sample of a pixel is a camera ray's hit lit by one
+// shadow ray per light (stratified over the area lights) and one ambient ray. Uniform
+// (edges empty): every pixel takes spp samples, each with its own camera ray (stratified
+// jitter, a box filter). Adaptive: an edge pixel is sampled as in uniform; a flat pixel
+// traces one camera ray, through its centre, takes its base colour as the mean of 2x2
+// texture taps over the pixel's footprint, and lights that hit with FlatSamples(spp)
+// samples. Its lighting (radiance over base colour) is then averaged over the flat pixels
+// around it on the same surface (FilterFlatLighting): a flat pixel's noise is that of its
+// shadows and ambient obscurance, which vary slowly over a surface, while its texture,
+// which does not, keeps every pixel's own base colour.
 struct FilmSampling {
   int spp = 4;
   // 1 for an edge pixel, 0 for a flat one, row-major; empty: every pixel is an edge.
   std::vector<uint8_t> edges;
 };
+
+// The samples of a flat pixel under adaptive sampling: spp / 4, at least one. The filter
+// averages each over up to 25 pixels, so one sample there is worth more than four
+// unfiltered ones; the edges, which are not filtered, take all spp.
+inline int FlatSamples(int spp) { return std::max(1, spp / 4); }
+
+// What FilterFlatLighting needs of each pixel, row-major.
+inline constexpr uint32_t kNoSurface = UINT32_MAX;
+struct FlatGuides {
+  std::vector<uint32_t> surface;  // the instance a flat pixel's camera ray hit; kNoSurface: edge, background
+  std::vector<float> depth;       // that hit's distance along its ray
+  std::vector<Vec3f> normal;      // its shading normal
+  std::vector<Vec3f> albedo;      // its base colour (linear)
+};
+
+// Replaces each flat pixel's lighting (radiance over base colour, per channel) by the mean
+// lighting of the pixels within 2 rows and 2 columns (separably: along its row, then its
+// column) that lie on its surface: the same instance, a depth within 2% per pixel of
+// distance, shading normals within 25 degrees. Pixels without a surface or with a base
+// colour channel below 1e-3 are left as they are and not used. Rows and then columns are
+// shared by `threads`; the result does not depend on their number.
+void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film);
 
 // FilmSampling::edges from a mask pass: 1 where a pixel's 3x3 neighbourhood holds another
 // visible id (object or room) or a depth more than 2% nearer or farther (occlusion
