@@ -13,7 +13,7 @@ namespace {
 
 struct RenderFlags {
   render::RenderCommandOptions options;
-  std::string shards, format = "png", sampling = "uniform";
+  std::string shards, format = "png", sampling = "adaptive";
   int64_t shard = -1;
   uint64_t asset_cache_mb = 2048;
   bool no_queries = false, json = false;
@@ -128,8 +128,9 @@ Command AddRender(CLI::App& app) {
   cmd->add_option("--spp", f->options.render.shading.samples_per_pixel, "Samples per pixel (stratified), of images and query views")->capture_default_str()->check(
       CLI::Range(1, 1024));
   cmd->add_option("--sampling", f->sampling,
-                  "Sampling of the images: uniform (spp camera rays per pixel) or adaptive (mask-driven: edges get "
-                  "them, flat pixels one camera ray and shared light rays)")
+                  "Sampling of the images: adaptive (mask-driven: edges get spp camera rays, flat pixels one "
+                  "with spp/4 light samples whose lighting is filtered over their surface) or uniform (spp camera "
+                  "rays per pixel)")
       ->capture_default_str()
       ->check(CLI::IsMember({"uniform", "adaptive"}));
   cmd->add_option("--query-size", f->options.render.query_views.long_side, "Long side of query views, pixels")->capture_default_str()->check(

@@ -465,8 +465,10 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
                              {"samples_per_pixel", options.query_views.samples_per_pixel}}},
                            {"query_shard_models", options.query_shard_models}};
   if (options.format != ImageFormat::kPng) render["quality"] = options.quality;
-  // Only when not the default, so that datasets rendered before adaptive sampling keep their manifest.
-  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive";
+  // Uniform sampling has no key, so that datasets rendered before adaptive sampling keep
+  // their manifest; adaptive sampling's value names its version, as resuming a dataset
+  // of the first (unfiltered, 2026-12-02) with this one would mix two kinds of pixels.
+  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive-filtered";
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;

@@ -1,11 +1,13 @@
 // Adaptive (mask-driven) sampling, issue 22: which pixels count as edges, that edges are
 // sampled as uniform sampling samples them and flat pixels with fewer rays, that the
-// image is the same for any thread count, and that its error against a high-spp
-// reference stays near uniform sampling's at the same spp.
+// filter of flat pixels' lighting averages only over their own surface and keeps their
+// texture, that the image is the same for any thread count, and that its error against a
+// high-spp reference is no worse than uniform sampling's at the same spp.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include "formats/test_util.h"
 #include "render/dataset_digest.h"
@@ -137,6 +139,135 @@ TEST(AdaptiveSampling, SameDatasetForAnyShardSizeAndThreadCount) {
   EXPECT_EQ(a, testing::DigestDataset(dir.path() / "b").value());
 }
 
+// A w x h film whose every pixel is flat on one surface (instance 0, 2 m away, facing
+// the camera), with a checkerboard texture of base colours 0.2 and 0.8 and lighting
+// `lighting(x, y)`: radiance is lighting times base colour.
+struct GuidedFilm {
+  Film film;
+  FlatGuides guides;
+  Vec3f Lighting(int x, int y) const {
+    const size_t p = static_cast<size_t>(y) * film.width + x;
+    const Vec3f a = guides.albedo[p];
+    return {film.rgb[3 * p] / a.x, film.rgb[3 * p + 1] / a.y, film.rgb[3 * p + 2] / a.z};
+  }
+};
+
+template <typename Lighting>
+GuidedFilm OneSurface(int w, int h, Lighting lighting) {
+  GuidedFilm f;
+  const size_t pixels = static_cast<size_t>(w) * h;
+  f.film.width = w;
+  f.film.height = h;
+  f.film.rgb.resize(3 * pixels);
+  f.film.covered.assign(pixels, 1);
+  f.guides.surface.assign(pixels, 0);
+  f.guides.depth.assign(pixels, 2.0f);
+  f.guides.normal.assign(pixels, Vec3f{0, 0, 1});
+  f.guides.albedo.resize(pixels);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t p = static_cast<size_t>(y) * w + x;
+      const float a = (x + y) % 2 ? 0.8f : 0.2f;
+      f.guides.albedo[p] = {a, a, a};
+      const Vec3f l = lighting(x, y);
+      f.film.rgb[3 * p] = l.x * a;
+      f.film.rgb[3 * p + 1] = l.y * a;
+      f.film.rgb[3 * p + 2] = l.z * a;
+    }
+  }
+  return f;
+}
+
+TEST(FlatLightingFilter, AveragesLightingOverTheBoxAndKeepsTheTexture) {
+  std::mt19937 gen(7);
+  std::uniform_real_distribution<float> noise(0.5f, 1.5f);
+  std::vector<Vec3f> lighting(40 * 30);
+  for (Vec3f& l : lighting) l = {noise(gen), noise(gen), noise(gen)};
+  GuidedFilm f = OneSurface(40, 30, [&](int x, int y) { return lighting[y * 40 + x]; });
+  const GuidedFilm before = f;
+  FilterFlatLighting(f.guides, 1, &f.film);
+  double variance_before = 0, variance_after = 0;
+  int n = 0;
+  for (int y = 2; y < 28; ++y) {
+    for (int x = 2; x < 38; ++x) {
+      Vec3f mean;
+      for (int dy = -2; dy <= 2; ++dy) {
+        for (int dx = -2; dx <= 2; ++dx) mean = mean + before.Lighting(x + dx, y + dy) * (1.0f / 25);
+      }
+      // Radiance over the pixel's own base colour: the texture is kept, the lighting averaged.
+      EXPECT_NEAR(f.Lighting(x, y).x, mean.x, 1e-5f) << x << "," << y;
+      EXPECT_NEAR(f.Lighting(x, y).z, mean.z, 1e-5f) << x << "," << y;
+      variance_before += (before.Lighting(x, y).y - 1) * (before.Lighting(x, y).y - 1);
+      variance_after += (f.Lighting(x, y).y - 1) * (f.Lighting(x, y).y - 1);
+      ++n;
+    }
+  }
+  // Independent noise over 25 pixels: a 25th of the variance, give or take the sample's spread.
+  EXPECT_LT(variance_after, variance_before / 15) << variance_before / n << " " << variance_after / n;
+  // At the image's border the box is cut: the corner averages its 3 x 3.
+  Vec3f corner;
+  for (int y = 0; y < 3; ++y) {
+    for (int x = 0; x < 3; ++x) corner = corner + before.Lighting(x, y) * (1.0f / 9);
+  }
+  EXPECT_NEAR(f.Lighting(0, 0).x, corner.x, 1e-5f);
+}
+
+TEST(FlatLightingFilter, StaysOnItsSurface) {
+  // Left half: instance 0 lit 1. Right half: instance 1 lit 3. Rows 0-9 are 10% nearer
+  // than rows 10-19 (a depth step), and rows 20-29 face another way (a crease).
+  GuidedFilm f = OneSurface(40, 30, [](int x, int y) {
+    const float l = (x < 20 ? 1.0f : 3.0f) * (y < 10 ? 2.0f : y < 20 ? 1.0f : 0.5f);
+    return Vec3f{l, l, l};
+  });
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      const size_t p = static_cast<size_t>(y) * 40 + x;
+      f.guides.surface[p] = x < 20 ? 0 : 1;
+      if (y < 10) f.guides.depth[p] = 1.8f;
+      if (y >= 20) f.guides.normal[p] = Vec3f{0.5f, 0, 0.866f};  // 30 degrees
+    }
+  }
+  const GuidedFilm before = f;
+  FilterFlatLighting(f.guides, 2, &f.film);
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      EXPECT_NEAR(f.Lighting(x, y).y, before.Lighting(x, y).y, 1e-5f) << x << "," << y;
+    }
+  }
+}
+
+TEST(FlatLightingFilter, LeavesEdgesBackgroundAndDarkTexelsAloneAndOutOfTheMean) {
+  GuidedFilm f = OneSurface(20, 20, [](int, int) { return Vec3f{1, 1, 1}; });
+  const size_t edge = 5 * 20 + 5, dark = 12 * 20 + 12;
+  f.guides.surface[edge] = kNoSurface;
+  f.film.rgb[3 * edge] = 100;  // an edge pixel's radiance, which a mean must not take
+  f.guides.albedo[dark] = {0.5f, 0.0f, 0.5f};
+  f.film.rgb[3 * dark] = 50;
+  const GuidedFilm before = f;
+  FilterFlatLighting(f.guides, 1, &f.film);
+  for (size_t c = 0; c < 3; ++c) {
+    EXPECT_EQ(f.film.rgb[3 * edge + c], before.film.rgb[3 * edge + c]);
+    EXPECT_EQ(f.film.rgb[3 * dark + c], before.film.rgb[3 * dark + c]);
+  }
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 20; ++x) {
+      const size_t p = static_cast<size_t>(y) * 20 + x;
+      if (p == edge || p == dark) continue;
+      EXPECT_NEAR(f.Lighting(x, y).x, 1.0f, 1e-5f) << x << "," << y;
+    }
+  }
+}
+
+TEST(FlatLightingFilter, SameBytesForAnyThreadCount) {
+  std::mt19937 gen(3);
+  std::uniform_real_distribution<float> noise(0.0f, 2.0f);
+  GuidedFilm one = OneSurface(37, 23, [&](int, int) { return Vec3f{noise(gen), noise(gen), noise(gen)}; });
+  GuidedFilm three = one;
+  FilterFlatLighting(one.guides, 1, &one.film);
+  FilterFlatLighting(three.guides, 3, &three.film);
+  EXPECT_EQ(one.film.rgb, three.film.rgb);
+}
+
 double Psnr(const Image8& a, const Image8& b) {
   double sum = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {
@@ -154,11 +285,11 @@ TEST(AdaptiveSampling, ErrorAgainstAHighSppReferenceStaysNearUniform) {
   const double adaptive = Psnr(f.Shade(Sampling::kAdaptive, 4, 2, &f.g.masks, textures).image, reference);
   RecordProperty("uniform_psnr_db", std::to_string(uniform));
   RecordProperty("adaptive_psnr_db", std::to_string(adaptive));
-  // When written: uniform 28.46 dB, adaptive 28.96 dB (a 96x72 image is mostly edges and
-  // texture detail; bench/render_quality_bench measures 640x480). Floors with 1.5 and 0.5 dB to spare.
-  EXPECT_GT(uniform, 27.0);
-  EXPECT_GT(adaptive, 27.0);
-  EXPECT_GT(adaptive, uniform - 0.5) << "uniform " << uniform << " dB";
+  // When written: uniform 32.68 dB, adaptive 32.87 dB (a 96x72 image is mostly edges and
+  // texture detail, where adaptive sampling samples as uniform does; at 640x480 the margin
+  // is 1.5 dB: bench/render_quality_bench). The issue's floor: adaptive at least uniform.
+  EXPECT_GT(uniform, 31.0);
+  EXPECT_GT(adaptive, uniform) << "uniform " << uniform << " dB";
 }
 
 }  // namespace

@@ -46,7 +46,8 @@ struct RenderOptions {
   ImageFormat format = ImageFormat::kPng;
   int quality = 90;    // jpeg and webp
   bool depth = false;  // store depth as OpenEXR (half float, ZIP)
-  ShadeOptions shading;
+  // Adaptive by default: at 4 spp it shades faster than uniform, at a higher PSNR (shade.h).
+  ShadeOptions shading{.samples_per_pixel = 4, .threads = 1, .sampling = Sampling::kAdaptive};
   QueryViewOptions query_views;
   int64_t query_shard_models = 64;
   bool queries = true;  // render the query shards the rendered targets need

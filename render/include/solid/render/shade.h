@@ -102,12 +102,12 @@ enum class Sampling {
   // Driven by the layout's mask pass: pixels whose 3x3 neighbourhood crosses an object
   // boundary or a depth step of more than 2% (edges and occlusion boundaries) are sampled
   // as kUniform; every other pixel traces one camera ray through its centre, filters its
-  // texture over the pixel's footprint (ray differentials, 2x2 taps), and shares its hit
-  // among samples_per_pixel light and ambient samples, tracing only the first two of
-  // each where they agree (fully lit, fully shadowed, unoccluded), and stopping after two
-  // where all agree. On 640x480 layouts of more-objects, against kUniform at 4 spp: at 4
-  // spp 0.65x its shading time and 0.8 dB lower PSNR; at 6 spp 0.69x and 0.3 dB higher
-  // (README, bench/render_quality_bench.cpp).
+  // texture over the pixel's footprint (ray differentials, 2x2 taps) and lights that hit
+  // with samples_per_pixel / 4 samples (at least one); then its lighting (radiance over
+  // base colour) is averaged over the flat pixels within two rows and columns on the
+  // same surface (same instance, depth and normal), which keeps each pixel's texture. On
+  // 640x480 layouts of more-objects, against kUniform at 4 spp: at 4 spp 1.5 dB higher
+  // PSNR in 0.6x its shading time (README, bench/render_quality_bench.cpp).
   kAdaptive,
 };
 
