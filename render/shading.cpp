@@ -304,18 +304,19 @@ Vec3f Factor(const gltf::Material* material) {
 
 }  // namespace
 
-Vec3f BaseColor(const gltf::Material* material, const DecodedTextures* textures, float u, float v) {
-  const Vec3f factor = Factor(material);
-  const DecodedTextures::Texture* tex = TextureOf(material, textures);
-  if (tex == nullptr) return factor;
+namespace {
+
+// The bilinear, repeating lookup of `tex` at uv, linear.
+Vec3f SampleTexture(const DecodedTextures::Texture& tex, float u, float v) {
   if (!std::isfinite(u) || !std::isfinite(v)) u = v = 0;
   // glTF's uv (0, 0) is the top-left corner of the image; texel centres at +0.5.
-  const float x = u * tex->width - 0.5f, y = v * tex->height - 0.5f;
+  const float x = u * tex.width - 0.5f, y = v * tex.height - 0.5f;
   const float fx0 = std::floor(x), fy0 = std::floor(y);
   const float ax = x - fx0, ay = y - fy0;
-  // c is a whole number: within int64's range (any uv a mesh holds) the wrap is integer
-  // arithmetic instead of a libm call; beyond it, fmod gives the same exact remainder.
+  // c is a whole number. Most lie within the texture; within int64's range (any uv a
+  // mesh holds) the wrap is integer arithmetic; beyond it, fmod gives the same remainder.
   auto wrap = [](float c, int n) {
+    if (c >= 0 && c < static_cast<float>(n)) return static_cast<int>(c);
     if (std::fabs(c) < 0x1p62f) {
       const auto r = static_cast<int>(static_cast<int64_t>(c) % n);
       return r < 0 ? r + n : r;
@@ -324,16 +325,23 @@ Vec3f BaseColor(const gltf::Material* material, const DecodedTextures* textures,
     const int i = static_cast<int>(r < 0 ? r + n : r);
     return i >= n ? 0 : i;
   };
-  const int x0 = wrap(fx0, tex->width), y0 = wrap(fy0, tex->height);
-  const int x1 = x0 + 1 == tex->width ? 0 : x0 + 1, y1 = y0 + 1 == tex->height ? 0 : y0 + 1;
+  const int x0 = wrap(fx0, tex.width), y0 = wrap(fy0, tex.height);
+  const int x1 = x0 + 1 == tex.width ? 0 : x0 + 1, y1 = y0 + 1 == tex.height ? 0 : y0 + 1;
   const std::array<float, 256>& lut = SrgbTable();
   auto texel = [&](int tx, int ty) {
-    const uint8_t* p = &tex->rgb[3 * (static_cast<size_t>(ty) * tex->width + tx)];
+    const uint8_t* p = &tex.rgb[3 * (static_cast<size_t>(ty) * tex.width + tx)];
     return Vec3f{lut[p[0]], lut[p[1]], lut[p[2]]};
   };
   const Vec3f top = texel(x0, y0) * (1 - ax) + texel(x1, y0) * ax;
   const Vec3f bottom = texel(x0, y1) * (1 - ax) + texel(x1, y1) * ax;
-  return factor * (top * (1 - ay) + bottom * ay);
+  return top * (1 - ay) + bottom * ay;
+}
+
+}  // namespace
+
+Vec3f BaseColor(const gltf::Material* material, const DecodedTextures* textures, float u, float v) {
+  const DecodedTextures::Texture* tex = TextureOf(material, textures);
+  return tex == nullptr ? Factor(material) : Factor(material) * SampleTexture(*tex, u, v);
 }
 
 Vec3f MeanBaseColor(const gltf::Material* material, const DecodedTextures* textures) {
@@ -350,7 +358,8 @@ namespace {
 // within it as an edge pixel's four jittered camera rays do, at the cost of three more
 // texture lookups instead of three more camera rays.
 Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
-  if (TextureOf(h.material, h.textures) == nullptr) return BaseColor(h.material, h.textures, h.u, h.v);
+  const DecodedTextures::Texture* tex = TextureOf(h.material, h.textures);
+  if (tex == nullptr) return Factor(h.material);
   const Vec3f e1 = h.corners[1] - h.corners[0], e2 = h.corners[2] - h.corners[0];
   const Vec3f n = Cross(e1, e2);
   const float d00 = Dot(e1, e1), d01 = Dot(e1, e2), d11 = Dot(e2, e2);
@@ -376,10 +385,10 @@ Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
   Vec3f sum;
   for (const float sx : {-0.25f, 0.25f}) {
     for (const float sy : {-0.25f, 0.25f}) {
-      sum = sum + BaseColor(h.material, h.textures, h.u + sx * dux + sy * duy, h.v + sx * dvx + sy * dvy);
+      sum = sum + SampleTexture(*tex, h.u + sx * dux + sy * duy, h.v + sx * dvx + sy * dvy);
     }
   }
-  return sum * 0.25f;
+  return Factor(h.material) * (sum * 0.25f);
 }
 
 }  // namespace
@@ -419,6 +428,7 @@ namespace {
 struct FilterScratch {
   FlatGuides guides;
   std::vector<Vec3f> lighting, across;
+  std::vector<uint8_t> usable;
 };
 
 FilterScratch& ThreadScratch() {
@@ -430,15 +440,14 @@ FilterScratch& ThreadScratch() {
 
 void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
   const int width = film->width, height = film->height;
+  FilterScratch& scratch = ThreadScratch();
   // Pixels without a surface, and dark base colours (whose lighting would be noise over
   // a near-zero divisor), neither take nor give.
-  auto usable = [&](size_t p) {
-    const Vec3f a = guides.albedo[p];
-    return guides.surface[p] != kNoSurface && a.x > kDarkAlbedo && a.y > kDarkAlbedo && a.z > kDarkAlbedo;
-  };
+  std::vector<uint8_t>& usable = scratch.usable;
+  usable.resize(film->rgb.size() / 3);
   // Whether pixel q, `steps` pixels from usable pixel p along a row or a column, lies on p's surface.
   auto same_surface = [&](size_t p, size_t q, int steps) {
-    return usable(q) && guides.surface[q] == guides.surface[p] &&
+    return usable[q] && guides.surface[q] == guides.surface[p] &&
            std::fabs(guides.depth[q] - guides.depth[p]) <= kDepthStep * static_cast<float>(steps) * guides.depth[p] &&
            Dot(guides.normal[q], guides.normal[p]) >= kFilterNormalCos;
   };
@@ -446,7 +455,6 @@ void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
   // over the pixels on the same surface. On an open surface that is the square box; at
   // its borders and around other objects it shrinks to what lies on the surface. Both
   // passes go row by row, which keeps the column pass's reads in cache.
-  FilterScratch& scratch = ThreadScratch();
   std::vector<Vec3f>& lighting = scratch.lighting;
   std::vector<Vec3f>& across = scratch.across;
   lighting.resize(film->rgb.size() / 3);
@@ -460,15 +468,16 @@ void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
   // Every usable pixel's entries are written before any is read.
   rows([&](int y) {
     for (size_t p = static_cast<size_t>(y) * width, end = p + width; p < end; ++p) {
-      if (!usable(p)) continue;
       const Vec3f a = guides.albedo[p];
+      usable[p] = guides.surface[p] != kNoSurface && a.x > kDarkAlbedo && a.y > kDarkAlbedo && a.z > kDarkAlbedo;
+      if (!usable[p]) continue;
       lighting[p] = {film->rgb[3 * p] / a.x, film->rgb[3 * p + 1] / a.y, film->rgb[3 * p + 2] / a.z};
     }
   });
   rows([&](int y) {
     for (int x = 0; x < width; ++x) {
       const size_t p = static_cast<size_t>(y) * width + x;
-      if (!usable(p)) continue;
+      if (!usable[p]) continue;
       Vec3f sum;
       int n = 0;
       for (int d = std::max(-kFilterRadius, -x); d <= kFilterRadius && x + d < width; ++d) {
@@ -482,7 +491,7 @@ void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
   rows([&](int y) {
     for (int x = 0; x < width; ++x) {
       const size_t p = static_cast<size_t>(y) * width + x;
-      if (!usable(p)) continue;
+      if (!usable[p]) continue;
       Vec3f sum;
       int n = 0;
       for (int d = std::max(-kFilterRadius, -y); d <= kFilterRadius && y + d < height; ++d) {
