@@ -153,6 +153,13 @@ TEST(RenderDataset, RerunRendersOnlyMissingShardsAndRefusesOtherSettings) {
   const auto refused = RenderDataset(*sampler, other);
   EXPECT_EQ(refused.status().code(), StatusCode::kAlreadyExists);
   EXPECT_NE(refused.status().message().find("seed"), std::string::npos) << refused.status().message();
+
+  // Uniform and adaptive pixels differ: a dataset begun with one does not resume with the other.
+  other = options;
+  other.shading.sampling = options.shading.sampling == Sampling::kAdaptive ? Sampling::kUniform : Sampling::kAdaptive;
+  const auto resampled = RenderDataset(*sampler, other);
+  EXPECT_EQ(resampled.status().code(), StatusCode::kAlreadyExists);
+  EXPECT_NE(resampled.status().message().find("sampling"), std::string::npos) << resampled.status().message();
 }
 
 TEST(RenderDataset, RepairReRendersOnlyTheDamagedShard) {
