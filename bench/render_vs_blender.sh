@@ -9,7 +9,8 @@
 # Both sides get $SOLID_BENCH_CORES cores (default 2): Cycles as its thread count, solid
 # as --jobs (an image per thread). Cycles renders $SOLID_BENCH_SAMPLES samples (default
 # 16), fixed (no adaptive sampling) and without a denoiser; solid renders 4 spp at
-# 640x480 and 1 and 4 at 320x240. ASSETS_DIR defaults to `solid convert procedural`.
+# 640x480 with its default (adaptive) sampling and with --sampling uniform, and 1 and 4
+# spp at 320x240 (adaptive). ASSETS_DIR defaults to `solid convert procedural`.
 # $SOLID_BENCH_KEEP=DIR keeps both sides' images there (blender/, solid-WxH-Sspp/).
 # Installs Blender with apt-get when it is missing (needs root).
 set -euo pipefail
@@ -79,15 +80,15 @@ extract() {
 }
 
 printf '\n%-34s %10s %12s %12s\n' renderer s/image images/s "vs Cycles"
-for config in 640x480:4 320x240:1 320x240:4; do
-  resolution=${config%:*}
-  spp=${config#*:}
-  report=$(solid_render "$resolution" "$spp" "$images" "$work/ds-$resolution-$spp" --no-queries)
-  echo "$report" >"$work/solid-$resolution-$spp.json"
-  extract "$work/ds-$resolution-$spp" "$keep/solid-$resolution-${spp}spp" "$((i - 1))"
+for config in 640x480:4:adaptive 640x480:4:uniform 320x240:1:adaptive 320x240:4:adaptive; do
+  IFS=: read -r resolution spp sampling <<<"$config"
+  name=$resolution-$spp-$sampling
+  report=$(solid_render "$resolution" "$spp" "$images" "$work/ds-$name" --sampling "$sampling" --no-queries)
+  echo "$report" >"$work/solid-$name.json"
+  extract "$work/ds-$name" "$keep/solid-$resolution-${spp}spp-$sampling" "$((i - 1))"
   solid_rate=$(echo "$report" | jq '.images / .seconds')
   cycles_s=$(blender_mean "$resolution" 5)
-  printf '%-34s %10.3f %12.2f %11.1fx\n' "solid render $resolution ${spp} spp" "$(echo "1 / $solid_rate" | bc -l)" \
+  printf '%-34s %10.3f %12.2f %11.1fx\n' "solid render $resolution ${spp} spp $sampling" "$(echo "1 / $solid_rate" | bc -l)" \
     "$solid_rate" "$(echo "$solid_rate * $cycles_s" | bc -l)"
 done
 for resolution in 640x480 320x240; do
@@ -100,9 +101,9 @@ printf 'Blender process, %d scenes x 2 resolutions, start-up included: %.1f s\n'
 
 # Where solid's time goes (per image, one thread each), from the 640x480 run.
 echo
-jq -r '.stages as $s | .images as $n | "solid stages at 640x480 4 spp, ms per image (one thread): " +
+jq -r '.stages as $s | .images as $n | "solid stages at 640x480 4 spp adaptive, ms per image (one thread): " +
   ([$s | to_entries[] | select(.key != "query_views_ms") | "\(.key) \(.value / $n * 100 | round / 100)"] | join(", ")) +
-  "; peak RSS \(.peak_rss_bytes / 1048576 | round) MiB"' "$work/solid-640x480-4.json"
+  "; peak RSS \(.peak_rss_bytes / 1048576 | round) MiB"' "$work/solid-640x480-4-adaptive.json"
 
 # Query views: the views of every model the images use, at the images' spp.
 report=$(solid_render 640x480 4 "$images" "$work/ds-queries")

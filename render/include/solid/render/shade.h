@@ -107,7 +107,8 @@ enum class Sampling {
   // base colour) is averaged over the flat pixels within two rows and columns on the
   // same surface (same instance, depth and normal), which keeps each pixel's texture. On
   // 640x480 layouts of more-objects, against kUniform at 4 spp: at 4 spp 1.5 dB higher
-  // PSNR in 0.6x its shading time (README, bench/render_quality_bench.cpp).
+  // PSNR in half its shading time (README, bench/render_quality_bench.cpp). The default
+  // of RenderOptions.
   kAdaptive,
 };
 
