@@ -474,33 +474,30 @@ void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
       lighting[p] = {film->rgb[3 * p] / a.x, film->rgb[3 * p + 1] / a.y, film->rgb[3 * p + 2] / a.z};
     }
   });
+  // The mean of `in` over the pixels on usable pixel p's surface within kFilterRadius of
+  // it along its row (step 1, k = x) or column (step width, k = y) of `length` pixels.
+  auto line_mean = [&](const std::vector<Vec3f>& in, size_t p, int k, int length, ptrdiff_t step) {
+    Vec3f sum;
+    int n = 0;
+    for (int d = std::max(-kFilterRadius, -k); d <= kFilterRadius && k + d < length; ++d) {
+      const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
+      if (d != 0 && !same_surface(p, q, std::abs(d))) continue;
+      sum = sum + in[q];
+      ++n;
+    }
+    return sum * (1.0f / static_cast<float>(n));
+  };
   rows([&](int y) {
     for (int x = 0; x < width; ++x) {
       const size_t p = static_cast<size_t>(y) * width + x;
-      if (!usable[p]) continue;
-      Vec3f sum;
-      int n = 0;
-      for (int d = std::max(-kFilterRadius, -x); d <= kFilterRadius && x + d < width; ++d) {
-        if (d != 0 && !same_surface(p, p + d, std::abs(d))) continue;
-        sum = sum + lighting[p + d];
-        ++n;
-      }
-      across[p] = sum * (1.0f / static_cast<float>(n));
+      if (usable[p]) across[p] = line_mean(lighting, p, x, width, 1);
     }
   });
   rows([&](int y) {
     for (int x = 0; x < width; ++x) {
       const size_t p = static_cast<size_t>(y) * width + x;
       if (!usable[p]) continue;
-      Vec3f sum;
-      int n = 0;
-      for (int d = std::max(-kFilterRadius, -y); d <= kFilterRadius && y + d < height; ++d) {
-        const size_t q = static_cast<size_t>(y + d) * width + x;
-        if (d != 0 && !same_surface(p, q, std::abs(d))) continue;
-        sum = sum + across[q];
-        ++n;
-      }
-      const Vec3f radiance = sum * (1.0f / static_cast<float>(n)) * guides.albedo[p];
+      const Vec3f radiance = line_mean(across, p, y, height, width) * guides.albedo[p];
       film->rgb[3 * p] = radiance.x;
       film->rgb[3 * p + 1] = radiance.y;
       film->rgb[3 * p + 2] = radiance.z;

@@ -124,8 +124,9 @@ struct FlatGuides {
 // lighting of the pixels within 2 rows and 2 columns (separably: along its row, then its
 // column) that lie on its surface: the same instance, a depth within 2% per pixel of
 // distance, shading normals within 25 degrees. Pixels without a surface or with a base
-// colour channel below 1e-3 are left as they are and not used. Rows and then columns are
-// shared by `threads`; the result does not depend on their number.
+// colour channel below 1e-3 are left as they are and not used. Each pass's rows are
+// shared by `threads`; the result does not depend on their number. Its scratch buffers
+// are the calling thread's, kept for its next film.
 void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film);
 
 // FilmSampling::edges from a mask pass: 1 where a pixel's 3x3 neighbourhood holds another

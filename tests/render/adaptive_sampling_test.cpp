@@ -83,7 +83,7 @@ TEST(AdaptiveSampling, EdgePixelsAsUniformFlatOnesWithFewerRays) {
   const ShadeResult edges = f.Shade(Sampling::kAdaptive, 4, 1, &all_edges, textures);
   EXPECT_EQ(edges.image.pixels, uniform.image.pixels);
   EXPECT_EQ(edges.rays, uniform.rays);
-  // Every pixel flat: one camera ray each, instead of four, and shared light rays.
+  // Every pixel flat: one camera ray and one light sample each, instead of four of each.
   const MaskPassResult all_flat = FlatMasks(96, 72);
   const ShadeResult flat = f.Shade(Sampling::kAdaptive, 4, 1, &all_flat, textures);
   EXPECT_LT(flat.rays, uniform.rays / 2);
