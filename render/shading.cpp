@@ -23,9 +23,8 @@ constexpr float kMaxSampleRadiance = 4.0f;
 constexpr float kMaxSpecularExponent = 1024.0f;
 // A relative depth step between neighbouring pixel centres that makes both edge pixels.
 constexpr float kDepthStep = 0.02f;
-// FilterFlatLighting: the half-width of its box, the least cosine between the normals of
-// two pixels it averages, and the base colour below which a pixel's lighting is not used.
-constexpr int kFilterRadius = 2;
+// FilterFlatLighting: the least cosine between the normals of two pixels it averages, and
+// the base colour below which a pixel's lighting is not used.
 constexpr float kFilterNormalCos = 0.906f;  // 25 degrees
 constexpr float kDarkAlbedo = 1e-3f;
 
@@ -451,7 +450,7 @@ void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
            std::fabs(guides.depth[q] - guides.depth[p]) <= kDepthStep * static_cast<float>(steps) * guides.depth[p] &&
            Dot(guides.normal[q], guides.normal[p]) >= kFilterNormalCos;
   };
-  // Separable: a box of 2 kFilterRadius + 1 pixels along rows, then along columns, each
+  // Separable: a box of 2 kFlatFilterRadius + 1 pixels along rows, then along columns, each
   // over the pixels on the same surface. On an open surface that is the square box; at
   // its borders and around other objects it shrinks to what lies on the surface. Both
   // passes go row by row, which keeps the column pass's reads in cache.
@@ -474,12 +473,12 @@ void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
       lighting[p] = {film->rgb[3 * p] / a.x, film->rgb[3 * p + 1] / a.y, film->rgb[3 * p + 2] / a.z};
     }
   });
-  // The mean of `in` over the pixels on usable pixel p's surface within kFilterRadius of
+  // The mean of `in` over the pixels on usable pixel p's surface within kFlatFilterRadius of
   // it along its row (step 1, k = x) or column (step width, k = y) of `length` pixels.
   auto line_mean = [&](const std::vector<Vec3f>& in, size_t p, int k, int length, ptrdiff_t step) {
     Vec3f sum;
     int n = 0;
-    for (int d = std::max(-kFilterRadius, -k); d <= kFilterRadius && k + d < length; ++d) {
+    for (int d = std::max(-kFlatFilterRadius, -k); d <= kFlatFilterRadius && k + d < length; ++d) {
       const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
       if (d != 0 && !same_surface(p, q, std::abs(d))) continue;
       sum = sum + in[q];

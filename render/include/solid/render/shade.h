@@ -104,9 +104,9 @@ enum class Sampling {
   // as kUniform; every other pixel traces one camera ray through its centre, filters its
   // texture over the pixel's footprint (ray differentials, 2x2 taps) and lights that hit
   // with samples_per_pixel / 4 samples (at least one); then its lighting (radiance over
-  // base colour) is averaged over the flat pixels within two rows and columns on the
+  // base colour) is averaged over the flat pixels within three rows and columns on the
   // same surface (same instance, depth and normal), which keeps each pixel's texture. On
-  // 640x480 layouts of more-objects, against kUniform at 4 spp: at 4 spp 1.5 dB higher
+  // 640x480 layouts of more-objects, against kUniform at 4 spp: at 4 spp 1.6 dB higher
   // PSNR in half its shading time (README, bench/render_quality_bench.cpp). The default
   // of RenderOptions.
   kAdaptive,
