@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <optional>
@@ -18,6 +19,7 @@
 #include "solid/formats/image_codec.h"
 #include "solid/formats/index.h"
 #include "solid/formats/metrics.h"
+#include "solid/formats/shard.h"
 #include "solid/formats/validate.h"
 #include "solid/render/sample.h"
 
@@ -171,9 +173,24 @@ TEST(RenderDataset, RepairReRendersOnlyTheDamagedShard) {
   const fs::path damaged = DatasetPaths(dir.path()).shard(0), intact = DatasetPaths(dir.path()).shard(1);
   const auto intact_bytes = files::ReadFile(intact, 1 << 30).value();
 
-  // Flip bytes in the middle of the file, where the image blobs are.
+  // Flip bytes of an image's encoded bytes, which its row checksum covers. (A fixed place,
+  // such as the file's middle, may fall in free space between rows, which changes the
+  // file's hash in the index but no row: that shard is whole, and --repair keeps it.)
   auto bytes = files::ReadFile(damaged, 1 << 30).value();
-  for (size_t at = bytes.size() / 2; at < bytes.size() / 2 + 64; ++at) bytes[at] ^= 0x5a;
+  const std::vector<uint8_t> image = [&] {
+    ShardReader reader = ShardReader::Open(damaged).value();
+    return reader.ReadImage(reader.ImageIds().value().front()).value().image;
+  }();
+  ASSERT_GT(image.size(), 64u);
+  // 32 bytes from the middle of the image: within one page of the file, unless a page
+  // boundary splits them; then the next 32.
+  auto at = bytes.end();
+  for (size_t from = image.size() / 2; at == bytes.end() && from + 32 <= image.size(); from += 32) {
+    at = std::search(bytes.begin(), bytes.end(), image.begin() + static_cast<ptrdiff_t>(from),
+                     image.begin() + static_cast<ptrdiff_t>(from + 32));
+  }
+  ASSERT_NE(at, bytes.end());
+  for (auto b = at; b != at + 32; ++b) *b ^= 0x5a;
   ASSERT_OK(files::WriteFileAtomically(damaged, bytes));
   EXPECT_FALSE(ValidateDataset(dir.path()).ok());
 
