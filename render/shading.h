@@ -127,9 +127,9 @@ struct FlatGuides {
 inline constexpr int kFlatFilterRadius = 3;
 
 // Replaces each flat pixel's lighting (radiance over base colour, per channel) by the mean
-// lighting of the pixels within kFlatFilterRadius rows and columns (separably: along its row, then its
-// column) that lie on its surface: the same instance, a depth within 2% per pixel of
-// distance, shading normals within 25 degrees. Pixels without a surface or with a base
+// lighting of the pixels within kFlatFilterRadius rows and columns (separably: along its
+// row, then its column) that lie on its surface: the same instance, a depth within 2% per
+// pixel of distance, shading normals within 25 degrees. Pixels without a surface or with a base
 // colour channel below 1e-3 are left as they are and not used. Each pass's rows are
 // shared by `threads`; the result does not depend on their number. Its scratch buffers
 // are the calling thread's, kept for its next film.
