@@ -518,8 +518,8 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
   // A reference, not the thread_local itself, so that the worker threads write this thread's guides.
   FlatGuides& guides = ThreadScratch().guides;
   if (adaptive) {
-    // Only pixels with a surface are read, and each of those is written below.
-    guides.surface.assign(pixels, kNoSurface);
+    // Every pixel's surface is written below, and the rest only where it has one.
+    guides.surface.resize(pixels);
     guides.depth.resize(pixels);
     guides.normal.resize(pixels);
     guides.albedo.resize(pixels);
@@ -709,8 +709,9 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
           film.rgb[3 * pixel + 1] = lane.sum.y * inv;
           film.rgb[3 * pixel + 2] = lane.sum.z * inv;
           film.covered[pixel] = lane.covered ? 1 : 0;
-          if (adaptive && !lane.edge && lane.covered) {
-            guides.surface[pixel] = lane.instance;
+          if (!adaptive) continue;
+          guides.surface[pixel] = !lane.edge && lane.covered ? lane.instance : kNoSurface;
+          if (guides.surface[pixel] != kNoSurface) {
             guides.depth[pixel] = lane.depth;
             guides.normal[pixel] = lane.n;
             guides.albedo[pixel] = lane.base;
