@@ -1,11 +1,9 @@
 #include "solid/render/query_views.h"
 
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -38,23 +36,37 @@ class SceneDevice {
   RTCDevice device_;
 };
 
-// Crops `film` to [x0, x1) x [y0, y1) and resizes it, in linear light, to w x h.
-Result<Image8> CropAndResize(const Film& film, int x0, int y0, int x1, int y1, int w, int h, std::string_view where) {
-  const OIIO::ImageSpec spec(film.width, film.height, 3, OIIO::TypeDesc::FLOAT);
-  const OIIO::ImageBuf full(spec, const_cast<float*>(film.rgb.data()));
-  const OIIO::ImageBuf crop = OIIO::ImageBufAlgo::cut(full, OIIO::ROI(x0, x1, y0, y1, 0, 1, 0, 3));
-  const OIIO::ImageBuf resized = OIIO::ImageBufAlgo::resize(crop, "", 0, OIIO::ROI(0, w, 0, h, 0, 1, 0, 3));
-  if (resized.has_error() || crop.has_error()) {
-    return InternalError(fmt::format("{}: resize failed: {}{}", where, crop.geterror(), resized.geterror()));
+// The vertices the model's triangles use: its silhouette's extent in any view lies
+// within theirs.
+std::vector<Vec3> TriangleVertices(const MeshGeometry& mesh) {
+  std::vector<uint8_t> used(mesh.VertexCount(), 0);
+  for (const uint32_t i : mesh.indices) {
+    if (i < used.size()) used[i] = 1;
   }
-  Film small;
-  small.width = w;
-  small.height = h;
-  small.rgb.resize(static_cast<size_t>(w) * h * 3);
-  if (!resized.get_pixels(OIIO::ROI(0, w, 0, h, 0, 1, 0, 3), OIIO::TypeDesc::FLOAT, small.rgb.data())) {
-    return InternalError(fmt::format("{}: resize failed: {}", where, resized.geterror()));
+  std::vector<Vec3> out;
+  for (size_t i = 0; i < used.size(); ++i) {
+    if (used[i]) out.push_back({mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]});
   }
-  return EncodeFilm(small);
+  return out;
+}
+
+// The rectangle of `camera`'s n x n frame that the projected model spans: its vertices'
+// bounding box, clipped to the frame. The whole frame if a vertex lies behind the near
+// plane (never with the fitted framing).
+struct FrameRect {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+FrameRect ProjectedExtent(const std::vector<Vec3>& vertices, const Mat3& rotation, const Camera& camera, int n,
+                          double near) {
+  const double frame = n;
+  FrameRect r{frame, frame, 0, 0};
+  for (const Vec3& p : vertices) {
+    double u = 0, v = 0;
+    if (!Project(camera, rotation * p, near, &u, &v)) return {0, 0, frame, frame};
+    r.x0 = std::min(r.x0, u), r.x1 = std::max(r.x1, u), r.y0 = std::min(r.y0, v), r.y1 = std::max(r.y1, v);
+  }
+  r.x0 = std::max(r.x0, 0.0), r.y0 = std::max(r.y0, 0.0), r.x1 = std::min(r.x1, frame), r.y1 = std::min(r.y1, frame);
+  return r;
 }
 
 }  // namespace
@@ -101,6 +113,8 @@ Result<QueryViewsResult> RenderQueryViews(const std::shared_ptr<const LoadedAsse
   scene.lights.push_back(light);
 
   const int n = options.render_size;
+  const double near = 1e-3 * out.distance;
+  const std::vector<Vec3> vertices = TriangleVertices(model->mesh());
   for (int v = 0; v < options.views; ++v) {
     const double azimuth = 360.0 * v / options.views;
     const double a = azimuth * kDegree;
@@ -108,27 +122,33 @@ Result<QueryViewsResult> RenderQueryViews(const std::shared_ptr<const LoadedAsse
     Camera camera;
     if (!LookAt(eye, {0, 0, 0}, options.hfov_deg, n, n, &camera)) return InternalError(where + ": no camera");
     scene.lights[0].position = ToFloat(eye);
-    const Film film = RenderFilm(scene, camera, n, n, 1e-3 * out.distance, FilmSampling{options.samples_per_pixel, {}},
-                                 options.threads, MixSeed(seed, static_cast<uint64_t>(v)));
-    int x0 = n, y0 = n, x1 = 0, y1 = 0;
-    for (int y = 0; y < n; ++y) {
-      for (int x = 0; x < n; ++x) {
-        if (film.covered[static_cast<size_t>(y) * n + x] == 0) continue;
-        x0 = std::min(x0, x), x1 = std::max(x1, x + 1), y0 = std::min(y0, y), y1 = std::max(y1, y + 1);
-      }
-    }
-    if (x1 <= x0) {
+    const FrameRect crop = ProjectedExtent(vertices, rotation, camera, n, near);
+    const double cw = crop.x1 - crop.x0, ch = crop.y1 - crop.y0;
+    if (!(cw > 0 && ch > 0)) {
       out.failed.push_back(azimuth);
       continue;
     }
-    const int cw = x1 - x0, ch = y1 - y0;
     const int w = cw >= ch ? options.long_side : std::max(1, static_cast<int>(std::lround(1.0 * options.long_side * cw / ch)));
     const int h = ch >= cw ? options.long_side : std::max(1, static_cast<int>(std::lround(1.0 * options.long_side * ch / cw)));
+    // The crop, traced directly at w x h: pixel coordinate u of this camera is
+    // crop.x0 + u * cw / w of the frame's. Resampling a larger render instead cost a third
+    // of a view's time in OpenImageIO's resize, and shaded four times the pixels.
+    Camera cropped = camera;
+    cropped.fx = camera.fx * w / cw;
+    cropped.cx = (camera.cx - crop.x0) * w / cw;
+    cropped.fy = camera.fy * h / ch;
+    cropped.cy = (camera.cy - crop.y0) * h / ch;
+    const Film film = RenderFilm(scene, cropped, w, h, near, FilmSampling{options.samples_per_pixel, {}},
+                                 options.threads, MixSeed(seed, static_cast<uint64_t>(v)));
+    if (std::find(film.covered.begin(), film.covered.end(), 1) == film.covered.end()) {
+      out.failed.push_back(azimuth);
+      continue;
+    }
     QueryView view;
-    SOLID_ASSIGN_OR_RETURN(view.image, CropAndResize(film, x0, y0, x1, y1, w, h, where));
+    view.image = EncodeFilm(film);
     view.azimuth_deg = azimuth;
     view.elevation_deg = 0;
-    view.crop_x0 = x0, view.crop_y0 = y0, view.crop_x1 = x1, view.crop_y1 = y1;
+    view.crop_x0 = crop.x0, view.crop_y0 = crop.y0, view.crop_x1 = crop.x1, view.crop_y1 = crop.y1;
     out.views.push_back(std::move(view));
   }
   out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -7,12 +7,13 @@
 // (radius: half the box diagonal) spans 80% of the frame: rho = 0.8 d tan(fov / 2).
 // Light: one point light at the camera of 1000 W x (d / 3 m)^2 (the reference's
 // 1000 W at 3 m, scaled with the distance), the world's grey 0.05 as ambient and
-// background. Shading as shade.h. Each view is cropped tightly to the pixels any
-// sample of the object covers (no margin), then resized (OpenImageIO, its default
-// filter, in linear light) so that its long side is `long_side`.
+// background. Shading as shade.h. Each view is cropped tightly to the model's projected
+// extent (its vertices' bounding box in the render_size frame, no margin) and traced
+// directly at that crop's aspect with its long side `long_side`, at samples_per_pixel
+// uniform samples per pixel.
 // The background is linear grey 0.05: sRGB (59, 59, 59) after the tone curve.
 //
-// Views whose object covers no pixel are left out (D6: failed views are not stored);
+// Views where no sample hits the object are left out (D6: failed views are not stored);
 // `failed` lists their azimuths. Deterministic: the same bytes for any thread count.
 #pragma once
 
@@ -39,8 +40,9 @@ struct QueryViewOptions {
 struct QueryView {
   Image8 image;  // RGB, long side = long_side
   double azimuth_deg = 0, elevation_deg = 0;
-  // The crop in the render_size x render_size render: [x0, x1) x [y0, y1).
-  int crop_x0 = 0, crop_y0 = 0, crop_x1 = 0, crop_y1 = 0;
+  // The view's rectangle [x0, x1) x [y0, y1) of the render_size x render_size frame, in
+  // that frame's pixel coordinates.
+  double crop_x0 = 0, crop_y0 = 0, crop_x1 = 0, crop_y1 = 0;
 };
 
 struct QueryViewsResult {
