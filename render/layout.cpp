@@ -42,10 +42,6 @@ bool LookAt(Vec3 eye, Vec3 target, double hfov_deg, int width, int height, Camer
   return true;
 }
 
-Vec3 RayDirection(const Camera& camera, double u, double v) {
-  return CameraRotation(camera) * Vec3{(u - camera.cx) / camera.fx, -(v - camera.cy) / camera.fy, -1.0};
-}
-
 Vec3 CameraPosition(const Camera& camera) {
   const auto& a = camera.world_from_camera;
   return {a[3], a[7], a[11]};

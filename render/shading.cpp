@@ -395,25 +395,24 @@ Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
 std::vector<uint8_t> EdgePixels(const MaskPassResult& masks) {
   const int w = masks.width, h = masks.height;
   std::vector<uint8_t> edges(static_cast<size_t>(w) * h, 0);
+  // Whether two pixels differ is symmetric, so each neighbouring pair is compared once
+  // (a pixel with its right, lower-left, lower and lower-right neighbours) and marks both.
+  auto differ = [&](size_t p, size_t q) {
+    const float d = masks.depth[p], e = masks.depth[q];
+    // Infinite depths (rays that leave the scene) differ from any finite one: inf - inf is NaN.
+    return masks.ids[q] != masks.ids[p] || (d != e && !(std::fabs(d - e) <= kDepthStep * std::min(d, e)));
+  };
+  auto mark = [&](size_t p, size_t q) {
+    if (differ(p, q)) edges[p] = edges[q] = 1;
+  };
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const size_t p = static_cast<size_t>(y) * w + x;
-      const uint32_t id = masks.ids[p];
-      const float d = masks.depth[p];
-      bool edge = false;
-      for (int dy = -1; dy <= 1 && !edge; ++dy) {
-        const int qy = y + dy;
-        if (qy < 0 || qy >= h) continue;
-        for (int dx = -1; dx <= 1 && !edge; ++dx) {
-          const int qx = x + dx;
-          if (qx < 0 || qx >= w) continue;
-          const size_t q = static_cast<size_t>(qy) * w + qx;
-          const float e = masks.depth[q];
-          // Infinite depths (rays that leave the scene) differ from any finite one: inf - inf is NaN.
-          edge = masks.ids[q] != id || (d != e && !(std::fabs(d - e) <= kDepthStep * std::min(d, e)));
-        }
-      }
-      edges[p] = edge ? 1 : 0;
+      if (x + 1 < w) mark(p, p + 1);
+      if (y + 1 == h) continue;
+      if (x > 0) mark(p, p + w - 1);
+      mark(p, p + w);
+      if (x + 1 < w) mark(p, p + w + 1);
     }
   }
   return edges;

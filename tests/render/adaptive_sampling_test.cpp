@@ -52,6 +52,39 @@ TEST(AdaptiveSampling, EdgesAreIdBoundariesAndDepthSteps) {
   EXPECT_FALSE(edge(11, 1));
 }
 
+// Any pixel whose 3x3 neighbourhood holds another id or a depth more than 2% away, by the
+// definition, on random ids and depths (with sky) that make every case common.
+TEST(AdaptiveSampling, EdgesMatchTheirDefinitionOnRandomMasks) {
+  std::mt19937 rng(3);
+  MaskPassResult m = FlatMasks(37, 23);
+  for (size_t p = 0; p < m.ids.size(); ++p) {
+    m.ids[p] = rng() % 7 == 0 ? 2 : 1;
+    const uint32_t r = rng() % 10;
+    m.depth[p] = r == 0 ? std::numeric_limits<float>::infinity() : 1.0f + 0.01f * static_cast<float>(r % 4);
+  }
+  const std::vector<uint8_t> e = EdgePixels(m);
+  int edges = 0;
+  for (int y = 0; y < 23; ++y) {
+    for (int x = 0; x < 37; ++x) {
+      const size_t p = static_cast<size_t>(y) * 37 + x;
+      bool expected = false;
+      for (int qy = std::max(0, y - 1); qy <= std::min(22, y + 1); ++qy) {
+        for (int qx = std::max(0, x - 1); qx <= std::min(36, x + 1); ++qx) {
+          const size_t q = static_cast<size_t>(qy) * 37 + qx;
+          const float d = m.depth[p], dq = m.depth[q];
+          const bool same_depth = d == dq || std::fabs(d - dq) <= 0.02f * std::min(d, dq);
+          expected = expected || m.ids[q] != m.ids[p] || !same_depth;
+        }
+      }
+      EXPECT_EQ(e[p] != 0, expected) << x << "," << y;
+      edges += expected;
+    }
+  }
+  // Both kinds of pixel occur.
+  EXPECT_GT(edges, 37 * 23 / 4);
+  EXPECT_LT(edges, 37 * 23);
+}
+
 struct Fixture {
   std::unique_ptr<LayoutSampler> sampler;
   GeneratedLayout g;

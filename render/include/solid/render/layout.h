@@ -35,8 +35,13 @@ namespace solid::render {
 // convention as records.h: looks along its -Z, +Y up. False when the view is vertical.
 bool LookAt(Vec3 eye, Vec3 target, double hfov_deg, int width, int height, Camera* camera);
 // The world-space direction (not normalized) through image point (u, v), in pixels
-// from the top-left corner of the image.
-Vec3 RayDirection(const Camera& camera, double u, double v);
+// from the top-left corner of the image. Inline: the shader asks for three per pixel.
+inline Vec3 RayDirection(const Camera& camera, double u, double v) {
+  const auto& a = camera.world_from_camera;
+  const Vec3 c{(u - camera.cx) / camera.fx, -(v - camera.cy) / camera.fy, -1.0};
+  return {a[0] * c.x + a[1] * c.y + a[2] * c.z, a[4] * c.x + a[5] * c.y + a[6] * c.z,
+          a[8] * c.x + a[9] * c.y + a[10] * c.z};
+}
 Vec3 CameraPosition(const Camera& camera);
 // Image coordinates of world point p; false when p is not in front of the camera by
 // more than `near`.
