@@ -304,6 +304,34 @@ Rle EncodeRowMajor(std::span<const uint8_t> mask, uint32_t height, uint32_t widt
   return rle;
 }
 
+Rle EncodeColumnMajorWindow(std::span<const uint8_t> window, uint32_t x0, uint32_t y0, uint32_t window_width,
+                            uint32_t window_height, uint32_t height, uint32_t width) {
+  const uint32_t total = CheckedPixelCount(height, width);
+  SOLID_CHECK(x0 <= width && window_width <= width - x0 && y0 <= height && window_height <= height - y0);
+  SOLID_CHECK(window.size() == size_t{window_width} * window_height);
+  Rle rle{height, width, {}};
+  if (total == 0) {
+    rle.counts = {0};  // as EncodeRowMajor
+    return rle;
+  }
+  RunBuilder runs(rle.counts);
+  runs.Append(false, x0 * height);
+  for (uint32_t x = 0; x < window_width; ++x) {
+    runs.Append(false, y0);
+    const uint8_t* column = window.data() + size_t{x} * window_height;
+    for (uint32_t y = 0; y < window_height;) {
+      const bool set = column[y] != 0;
+      uint32_t end = y + 1;
+      while (end < window_height && (column[end] != 0) == set) ++end;
+      runs.Append(set, end - y);
+      y = end;
+    }
+    runs.Append(false, height - y0 - window_height);
+  }
+  runs.Append(false, (width - x0 - window_width) * height);
+  return rle;
+}
+
 std::vector<IdRle> EncodeIdImageRowMajor(std::span<const uint32_t> ids, uint32_t height, uint32_t width) {
   const uint32_t total = CheckedPixelCount(ids.size(), height, width);
   std::vector<IdRle> encoded;

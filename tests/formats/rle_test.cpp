@@ -322,6 +322,32 @@ TEST(RleProperties, IdImageEncoderAgreesWithPerIdEncoding) {
   }
 }
 
+TEST(RleProperties, WindowEncoderAgreesWithTheWholeMask) {
+  Rng rng(0x5eed0004);
+  for (int iteration = 0; iteration < 600; ++iteration) {
+    const auto [height, width] = RandomSize(rng);
+    // Windows touching each border, empty ones, and the whole image.
+    const auto x0 = static_cast<uint32_t>(rng() % (width + 1)), y0 = static_cast<uint32_t>(rng() % (height + 1));
+    const auto ww = static_cast<uint32_t>(rng() % (width - x0 + 1)), wh = static_cast<uint32_t>(rng() % (height - y0 + 1));
+    const bool whole = iteration % 10 == 0;
+    const uint32_t wx0 = whole ? 0 : x0, wy0 = whole ? 0 : y0, w = whole ? width : ww, h = whole ? height : wh;
+    SCOPED_TRACE(testing::Message() << "iteration " << iteration << ", " << height << "x" << width << ", window "
+                                    << w << "x" << h << " at " << wx0 << "," << wy0);
+    const Mask blob = BlobMask(rng, h, w);
+    std::vector<uint8_t> window(size_t{w} * h);
+    Mask whole_mask{height, width, std::vector<uint8_t>(size_t{height} * width, 0)};
+    for (uint32_t y = 0; y < h; ++y) {
+      for (uint32_t x = 0; x < w; ++x) {
+        // Set pixels as any nonzero byte, as a mask pass may write them.
+        const uint8_t v = blob.pixels[size_t{y} * w + x] != 0 ? static_cast<uint8_t>(1 + rng() % 255) : 0;
+        window[size_t{x} * h + y] = v;
+        whole_mask.pixels[size_t{wy0 + y} * width + wx0 + x] = v != 0;
+      }
+    }
+    ASSERT_EQ(EncodeColumnMajorWindow(window, wx0, wy0, w, h, height, width), Encode(whole_mask));
+  }
+}
+
 TEST(RleProperties, FromBoxIsTheClippedHalfOpenRectangle) {
   Rng rng(0x5eed0004);
   for (int iteration = 0; iteration < 3000; ++iteration) {

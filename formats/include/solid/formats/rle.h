@@ -54,6 +54,16 @@ struct Box {
 // Precondition: mask.size() == height * width <= kMaxPixels (checked).
 Rle EncodeRowMajor(std::span<const uint8_t> mask, uint32_t height, uint32_t width);
 
+// A height x width mask that is unset outside the window [x0, x0 + window_width) x
+// [y0, y0 + window_height) and `window` inside it, given column by column (window[(x -
+// x0) * window_height + (y - y0)] != 0 sets pixel (x, y)). Equals EncodeRowMajor of that
+// mask, without a whole-image buffer: a mask pass that knows where an object can lie
+// writes only that window.
+// Precondition: the window lies within the image, window.size() == window_width *
+// window_height, height * width <= kMaxPixels (checked).
+Rle EncodeColumnMajorWindow(std::span<const uint8_t> window, uint32_t x0, uint32_t y0, uint32_t window_width,
+                            uint32_t window_height, uint32_t height, uint32_t width);
+
 struct IdRle {
   uint32_t id = 0;
   Rle rle;  // the mask of the pixels whose id equals `id`
