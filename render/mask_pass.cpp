@@ -138,6 +138,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
   ids.assign(pixels, 0);
   if (masks) {
     out.depth.assign(pixels, kInfinity);
+    out.centre_hits.resize(pixels);
     size_t window_pixels = 0;
     for (const PlacedObject& o : layout.objects) {
       windows.push_back(CandidatePixels(layout, o));
@@ -203,6 +204,15 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
           if (masks) {
             const float nearest_t = object_nearest ? object_rays.ray.tfar[i] : room_t;
             out.depth[pixel[i]] = nearest_t == kInfinity ? kInfinity : nearest_t / length[i];
+            MaskPassResult::CentreHit& hit = out.centre_hits[pixel[i]];
+            const RTCHit16& nearest_hit = object_nearest ? object_rays.hit : room_rays.hit;
+            hit.surface = object_nearest            ? nearest
+                          : nearest_t != kInfinity ? static_cast<uint32_t>(objects)
+                                                   : MaskPassResult::CentreHit::kNothing;
+            hit.triangle = nearest_hit.primID[i];
+            hit.u = nearest_hit.u[i];
+            hit.v = nearest_hit.v[i];
+            hit.distance = nearest_t;
           }
         }
       }

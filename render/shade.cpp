@@ -215,11 +215,14 @@ Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const Sh
   if (options.sampling == Sampling::kAdaptive) {
     const size_t pixels = static_cast<size_t>(layout.width) * layout.height;
     if (masks == nullptr || masks->width != layout.width || masks->height != layout.height ||
-        masks->ids.size() != pixels || masks->depth.size() != pixels) {
+        masks->ids.size() != pixels || masks->depth.size() != pixels ||
+        (!masks->centre_hits.empty() &&
+         (masks->centre_hits.size() != pixels || masks->instances.size() != layout.objects.size()))) {
       return InvalidArgumentError(fmt::format("shade: layout {}: adaptive sampling needs the layout's {}x{} mask pass",
                                               layout.index, layout.width, layout.height));
     }
     sampling.edges = EdgePixels(*masks);
+    if (!masks->centre_hits.empty()) sampling.centre_hits = &masks->centre_hits;
   }
   const RoomShell& room = *layout.room;
   ShadingScene scene;

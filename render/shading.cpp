@@ -511,6 +511,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
                 const FilmSampling& sampling, int threads, uint64_t seed) {
   const int spp = sampling.spp;
   const bool adaptive = !sampling.edges.empty();
+  const std::vector<MaskPassResult::CentreHit>* centre_hits = adaptive ? sampling.centre_hits : nullptr;
   const int flat_spp = FlatSamples(spp);
   Film film;
   film.width = width;
@@ -575,6 +576,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     std::vector<Rng> rngs(kLanes, Rng(0, kShadingStream));
     std::array<Lane, kLanes> lanes;
     alignas(64) int inside[kLanes], hit[kLanes], active[kLanes], valid[kLanes], traced[kLanes];
+    bool known[kLanes];
     std::array<Vec3f, kLanes> wi;
     std::array<float, kLanes> irradiance;
     RTCRayHit16 rays;
@@ -604,9 +606,11 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
         }
         for (int s = 0; s < tile_spp; ++s) {
           // Edge pixels trace a camera ray per sample; flat ones one, through their centre,
-          // whose hit all their samples share.
+          // whose hit all their samples share, or take that ray's hit from the mask pass.
           for (int i = 0; i < kLanes; ++i) {
             traced[i] = inside[i] && (s == 0 || (lanes[i].edge && s < lanes[i].samples)) ? -1 : 0;
+            known[i] = traced[i] && !lanes[i].edge && centre_hits != nullptr;
+            if (known[i]) traced[i] = 0;
             if (!traced[i]) continue;
             const auto jitter = lanes[i].edge ? samplers[i].Get(s, -1) : std::array<float, 2>{0.5f, 0.5f};
             const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
@@ -619,24 +623,35 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             active[i] = 0;
             if (!inside[i] || s >= lanes[i].samples) continue;
             Lane& lane = lanes[i];
+            const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
+            const MaskPassResult::CentreHit* centre =
+                known[i] ? &(*centre_hits)[static_cast<size_t>(y) * width + x] : nullptr;
             if (traced[i]) hit[i] = rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
+            if (known[i]) hit[i] = centre->surface != MaskPassResult::CentreHit::kNothing ? -1 : 0;
             if (!hit[i]) {
               lane.sum = lane.sum + scene.background;
               continue;
             }
             active[i] = -1;
             lane.radiance = {};
-            if (!traced[i]) continue;
+            if (!traced[i] && !known[i]) continue;
             lane.covered = true;
-            lane.instance = rays.hit.instID[0][i];
-            lane.depth = rays.ray.tfar[i];
-            const Vec3f dir{rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
-            const Hit h = Surface(scene, frames, rays.hit.instID[0][i], rays.hit.primID[i], rays.hit.u[i],
-                                  rays.hit.v[i], dir);
+            Vec3f dir;
+            Hit h;
+            if (known[i]) {
+              lane.instance = centre->surface;
+              lane.depth = centre->distance;
+              dir = Normalized(ToFloat(RayDirection(camera, x + 0.5, y + 0.5)));
+              h = Surface(scene, frames, centre->surface, centre->triangle, centre->u, centre->v, dir);
+            } else {
+              lane.instance = rays.hit.instID[0][i];
+              lane.depth = rays.ray.tfar[i];
+              dir = {rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
+              h = Surface(scene, frames, rays.hit.instID[0][i], rays.hit.primID[i], rays.hit.u[i], rays.hit.v[i], dir);
+            }
             if (lane.edge) {
               lane.base = BaseColor(h.material, h.textures, h.u, h.v);
             } else {
-              const int x = tx * kTile + i % kTile, y = ty * kTile + i / kTile;
               lane.base = FootprintBaseColor(h, eye, ToFloat(RayDirection(camera, x + 1.5, y + 0.5)),
                                              ToFloat(RayDirection(camera, x + 0.5, y + 1.5)));
             }

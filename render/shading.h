@@ -104,6 +104,10 @@ struct FilmSampling {
   int spp = 4;
   // 1 for an edge pixel, 0 for a flat one, row-major; empty: every pixel is an edge.
   std::vector<uint8_t> edges;
+  // The mask pass's hits of the pixel centres (through the same camera, width and
+  // height), which flat pixels then light instead of tracing their camera rays again; null:
+  // flat pixels trace them.
+  const std::vector<MaskPassResult::CentreHit>* centre_hits = nullptr;
 };
 
 // The samples of a flat pixel under adaptive sampling: spp / 4, at least one. The filter

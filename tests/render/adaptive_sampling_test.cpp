@@ -126,6 +126,33 @@ TEST(AdaptiveSampling, EdgePixelsAsUniformFlatOnesWithFewerRays) {
   EXPECT_LT(adaptive.rays, uniform.rays);
 }
 
+// Flat pixels light the hit the mask pass found for their centre ray instead of tracing it
+// again: one camera ray fewer per flat pixel, and the same image but for float rounding
+// (the mask pass normalises its rays in double precision).
+TEST(AdaptiveSampling, FlatPixelsLightTheMaskPassHitsInsteadOfTracingThem) {
+  const Fixture f;
+  TextureCache textures;
+  ASSERT_EQ(f.g.masks.centre_hits.size(), size_t{96} * 72);
+  MaskPassResult traced = f.g.masks;
+  traced.centre_hits.clear();
+  const ShadeResult from_masks = f.Shade(Sampling::kAdaptive, 4, 1, &f.g.masks, textures);
+  const ShadeResult from_rays = f.Shade(Sampling::kAdaptive, 4, 1, &traced, textures);
+  const std::vector<uint8_t> edges = EdgePixels(f.g.masks);
+  const auto flat = static_cast<uint64_t>(std::count(edges.begin(), edges.end(), 0));
+  EXPECT_GT(flat, edges.size() / 2);
+  EXPECT_EQ(from_rays.rays - from_masks.rays, flat);
+  ASSERT_EQ(from_masks.image.pixels.size(), from_rays.image.pixels.size());
+  int most = 0;
+  size_t differing = 0;
+  for (size_t i = 0; i < from_rays.image.pixels.size(); ++i) {
+    const int d = std::abs(from_masks.image.pixels[i] - from_rays.image.pixels[i]);
+    most = std::max(most, d);
+    differing += d != 0;
+  }
+  EXPECT_LE(most, 2);
+  EXPECT_LT(differing, from_rays.image.pixels.size() / 100);
+}
+
 TEST(AdaptiveSampling, SameBytesForAnyThreadCount) {
   const Fixture f;
   TextureCache textures;

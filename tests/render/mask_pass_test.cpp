@@ -226,10 +226,49 @@ TEST(MaskPass, ThreadCountDoesNotChangeAnything) {
   const MaskPassResult one = scene.Run(1), three = scene.Run(3);
   EXPECT_EQ(one.ids, three.ids);
   EXPECT_EQ(one.depth, three.depth);
+  EXPECT_EQ(one.centre_hits, three.centre_hits);
   for (size_t k = 0; k < one.instances.size(); ++k) {
     EXPECT_EQ(one.instances[k].visible_rle, three.instances[k].visible_rle);
     EXPECT_EQ(one.instances[k].full_rle, three.instances[k].full_rle);
   }
+}
+
+// Each pixel's centre hit names what `ids` and `depth` say is nearest: the object, the
+// room (object count) or nothing, at the depth's distance along the unit ray.
+TEST(MaskPass, CentreHitsAgreeWithIdsAndDepth) {
+  LayoutParams params = LoadPreset("more-objects").value();
+  params.width = 96;
+  params.height = 72;
+  auto sampler = LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
+  const GeneratedLayout g = GenerateLayout(*sampler, 3, 0).value();
+  const MaskPassResult& m = g.masks;
+  ASSERT_EQ(m.centre_hits.size(), m.ids.size());
+  const auto objects = static_cast<uint32_t>(g.layout.objects.size());
+  int room = 0;
+  for (int y = 0; y < m.height; ++y) {
+    for (int x = 0; x < m.width; ++x) {
+      const size_t p = static_cast<size_t>(y) * m.width + x;
+      const MaskPassResult::CentreHit& hit = m.centre_hits[p];
+      SCOPED_TRACE(::testing::Message() << x << "," << y);
+      if (m.ids[p] != 0) {
+        EXPECT_EQ(hit.surface, m.ids[p] - 1);
+      } else if (std::isinf(m.depth[p])) {
+        EXPECT_EQ(hit.surface, MaskPassResult::CentreHit::kNothing);
+        continue;
+      } else {
+        EXPECT_EQ(hit.surface, objects);
+        ++room;
+      }
+      const double length = Length(RayDirection(g.layout.camera, x + 0.5, y + 0.5));
+      EXPECT_NEAR(hit.distance, m.depth[p] * length, 1e-5 * hit.distance);
+      EXPECT_GE(hit.u, 0.0f);
+      EXPECT_GE(hit.v, 0.0f);
+      EXPECT_LE(hit.u + hit.v, 1.0f + 1e-6f);
+    }
+  }
+  EXPECT_GT(room, 0);
+  // Metrics-only passes keep none.
+  EXPECT_TRUE(RunMaskPass(g.layout, 1, {.metrics_only = true}).value().centre_hits.empty());
 }
 
 // The optimizer's metrics-only pass counts what the full pass paints: every visible

@@ -49,6 +49,17 @@ struct MaskPassResult {
   // Row-major distance along the camera's -Z axis to the nearest surface, metres;
   // +infinity where the ray leaves the scene.
   std::vector<float> depth;
+  // Row-major: what each pixel's centre ray hit (the ray of `ids` and `depth`), so that a
+  // shader lighting that hit need not trace the ray again. Empty after a metrics_only pass.
+  struct CentreHit {
+    static constexpr uint32_t kNothing = UINT32_MAX;
+    uint32_t surface = kNothing;  // k: object k; the object count: the room; kNothing: no hit
+    uint32_t triangle = 0;        // of that surface's mesh
+    float u = 0, v = 0;           // the hit's barycentric coordinates (Embree's)
+    float distance = 0;           // along the unit ray
+    friend bool operator==(const CentreHit&, const CentreHit&) = default;
+  };
+  std::vector<CentreHit> centre_hits;
   // One per placed object, in placement order (ordinal = render id = k): mask fields
   // through SetInstanceMasks, pose, size, distance, viewpoint and truncation.
   // image_id = layout index.
