@@ -399,8 +399,12 @@ Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
 std::vector<uint8_t> EdgePixels(const MaskPassResult& masks) {
   const int w = masks.width, h = masks.height;
   std::vector<uint8_t> edges(static_cast<size_t>(w) * h, 0);
-  // Whether two pixels differ is symmetric, so each neighbouring pair is compared once
-  // (a pixel with its right, lower-left, lower and lower-right neighbours) and marks both.
+  // Whether two pixels differ is symmetric, so each neighbouring pair is compared once (a
+  // pixel with its right and lower neighbours) and marks both. Diagonal neighbours are not
+  // compared: a boundary that only touches a pixel's corner covers little of its area. On
+  // 8 more-objects layouts at 640x480 (bench/render_quality_bench) leaving them flat took
+  // 0.15 rays per pixel fewer, shading 5% faster over three interleaved runs, and cost
+  // 0.04 dB (36.13 against 36.17; SSIM 0.9787 against 0.9785).
   auto differ = [&](size_t p, size_t q) {
     const float d = masks.depth[p], e = masks.depth[q];
     // Infinite depths (rays that leave the scene) differ from any finite one: inf - inf is NaN.
@@ -413,10 +417,7 @@ std::vector<uint8_t> EdgePixels(const MaskPassResult& masks) {
     for (int x = 0; x < w; ++x) {
       const size_t p = static_cast<size_t>(y) * w + x;
       if (x + 1 < w) mark(p, p + 1);
-      if (y + 1 == h) continue;
-      if (x > 0) mark(p, p + w - 1);
-      mark(p, p + w);
-      if (x + 1 < w) mark(p, p + w + 1);
+      if (y + 1 < h) mark(p, p + w);
     }
   }
   return edges;

@@ -139,9 +139,10 @@ inline constexpr int kFlatFilterRadius = 3;
 // are the calling thread's, kept for its next film.
 void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film);
 
-// FilmSampling::edges from a mask pass: 1 where a pixel's 3x3 neighbourhood holds another
-// visible id (object or room) or a depth more than 2% nearer or farther (occlusion
-// boundaries within one object or the room), where the pixel's area may span two surfaces.
+// FilmSampling::edges from a mask pass: 1 where the pixel to a pixel's left, right, top or
+// bottom holds another visible id (object or room) or a depth more than 2% nearer or
+// farther (occlusion boundaries within one object or the room), where the pixel's area
+// may span two surfaces.
 std::vector<uint8_t> EdgePixels(const MaskPassResult& masks);
 
 // Traces width x height pixels of `camera` as `sampling` says, pixel p seeded with

@@ -99,11 +99,12 @@ enum class Sampling {
   // each lit by its own shadow ray per light and ambient ray; also the query views'
   // sampling and the reference of bench/render_quality_bench.
   kUniform,
-  // Driven by the layout's mask pass: pixels whose 3x3 neighbourhood crosses an object
+  // Driven by the layout's mask pass: pixels next to (left, right, above, below) an object
   // boundary or a depth step of more than 2% (edges and occlusion boundaries) are sampled
-  // as kUniform; every other pixel traces one camera ray through its centre, filters its
-  // texture over the pixel's footprint (ray differentials, 2x2 taps) and lights that hit
-  // with samples_per_pixel / 4 samples (at least one); then its lighting (radiance over
+  // as kUniform; every other pixel takes the hit of its centre ray (found by the mask
+  // pass, or traced when the mask pass has none), filters its texture over the pixel's
+  // footprint (ray differentials, 2x2 taps) and lights that hit with
+  // samples_per_pixel / 4 samples (at least one); then its lighting (radiance over
   // base colour) is averaged over the flat pixels within three rows and columns on the
   // same surface (same instance, depth and normal), which keeps each pixel's texture. On
   // 640x480 layouts of more-objects, against kUniform at 4 spp: at 4 spp 1.6 dB higher
