@@ -462,13 +462,17 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
                              {"long_side", options.query_views.long_side},
                              {"hfov_deg", options.query_views.hfov_deg},
                              {"light_power_w", options.query_views.light_power_w},
-                             {"samples_per_pixel", options.query_views.samples_per_pixel}}},
+                             {"samples_per_pixel", options.query_views.samples_per_pixel},
+                             // Traced over the model's projected extent (2026-12-03); before,
+                             // a render_size render was cropped and resized.
+                             {"crop", "traced"}}},
                            {"query_shard_models", options.query_shard_models}};
   if (options.format != ImageFormat::kPng) render["quality"] = options.quality;
-  // Uniform sampling has no key, so that datasets rendered before adaptive sampling keep
-  // their manifest; adaptive sampling's value names its version, as resuming a dataset
-  // of the first (unfiltered, 2026-12-02) with this one would mix two kinds of pixels.
-  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive-filtered";
+  // Uniform sampling has no key. Adaptive sampling's value names its version, as resuming
+  // a dataset of another with this one would mix two kinds of pixels: "adaptive"
+  // (unfiltered, 2026-12-02), "adaptive-filtered" (3x3 edges, 2026-12-03 morning), and
+  // this one (4-neighbour edges, flat pixels on the mask pass's hits).
+  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive-filtered-2";
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;
