@@ -89,15 +89,8 @@ TEST(AdaptiveSampling, EdgesMatchTheirDefinitionOnRandomMasks) {
 }
 
 struct Fixture {
-  std::unique_ptr<LayoutSampler> sampler;
-  GeneratedLayout g;
-  Fixture() {
-    LayoutParams params = LoadPreset("more-objects").value();
-    params.width = 96;
-    params.height = 72;
-    sampler = LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
-    g = GenerateLayout(*sampler, 5, 0).value();
-  }
+  testing::SmallLayout drawn = testing::DrawSmallLayout("more-objects", 5);
+  const GeneratedLayout& g = drawn.g;
   ShadeResult Shade(Sampling sampling, int spp, int threads, const MaskPassResult* masks, TextureCache& textures) const {
     ShadeOptions o;
     o.samples_per_pixel = spp;

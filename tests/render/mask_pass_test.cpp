@@ -236,11 +236,8 @@ TEST(MaskPass, ThreadCountDoesNotChangeAnything) {
 // Each pixel's centre hit names what `ids` and `depth` say is nearest: the object, the
 // room (object count) or nothing, at the depth's distance along the unit ray.
 TEST(MaskPass, CentreHitsAgreeWithIdsAndDepth) {
-  LayoutParams params = LoadPreset("more-objects").value();
-  params.width = 96;
-  params.height = 72;
-  auto sampler = LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
-  const GeneratedLayout g = GenerateLayout(*sampler, 3, 0).value();
+  const testing::SmallLayout drawn = testing::DrawSmallLayout("more-objects", 3);
+  const GeneratedLayout& g = drawn.g;
   const MaskPassResult& m = g.masks;
   ASSERT_EQ(m.centre_hits.size(), m.ids.size());
   const auto objects = static_cast<uint32_t>(g.layout.objects.size());

@@ -77,11 +77,8 @@ double Luma(const Image8& image, int x, int y) {
 }
 
 TEST(Shade, SameBytesForAnyThreadCountAndRerun) {
-  LayoutParams params = LoadPreset("random-placement").value();
-  params.width = 96;
-  params.height = 72;
-  auto sampler = LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
-  const GeneratedLayout g = GenerateLayout(*sampler, 3, 0).value();
+  const testing::SmallLayout drawn = testing::DrawSmallLayout("random-placement", 3);
+  const GeneratedLayout& g = drawn.g;
   const LightRig lights = SampleLights(g.layout).value();
   EXPECT_EQ(lights.ToJson(), SampleLights(g.layout).value().ToJson());
   TextureCache textures;

@@ -41,4 +41,14 @@ std::shared_ptr<AssetLibrary> ProceduralLibrary() {
   return library;
 }
 
+SmallLayout DrawSmallLayout(const std::string& preset, uint64_t seed) {
+  LayoutParams params = LoadPreset(preset).value();
+  params.width = 96;
+  params.height = 72;
+  SmallLayout out;
+  out.sampler = LayoutSampler::Create(params, ProceduralLibrary()).value();
+  out.g = GenerateLayout(*out.sampler, seed, 0).value();
+  return out;
+}
+
 }  // namespace solid::render::testing
