@@ -242,6 +242,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     alignas(64) int valid[kLanes];
+    bool inside[kLanes], seen[kLanes];
     uint32_t pixel[kLanes];
     float length = 0;
     RTCRay16 rays;
@@ -259,19 +260,25 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
       uint64_t count = 0, visible_inside = 0;
       for (int y0 = rect.y0; y0 < rect.y1; y0 += kTile) {
         for (int x0 = rect.x0; x0 < rect.x1; x0 += kTile) {
+          // A pixel where the object is visible is in its full mask whatever its ray would
+          // find, so only the others are traced; a tile inside the visible object traces none.
+          bool any_traced = false;
           for (int i = 0; i < kLanes; ++i) {
             const int x = x0 + i % kTile, y = y0 + i / kTile;
-            valid[i] = x < rect.x1 && y < rect.y1 ? -1 : 0;
-            pixel[i] = valid[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
+            inside[i] = x < rect.x1 && y < rect.y1;
+            pixel[i] = inside[i] ? static_cast<uint32_t>(y) * static_cast<uint32_t>(w) + static_cast<uint32_t>(x) : 0;
+            seen[i] = inside[i] && ids[pixel[i]] == id;
+            valid[i] = inside[i] && !seen[i] ? -1 : 0;
+            if (!valid[i]) continue;
+            any_traced = true;
             SetRayLane(&rays, i, eye, PixelRay(cam, x, y, &length), tnear);
           }
-          rtcOccluded16(valid, scene.get(), &context, &rays);
+          if (any_traced) rtcOccluded16(valid, scene.get(), &context, &rays);
           for (int i = 0; i < kLanes; ++i) {
-            if (!valid[i]) continue;
-            const bool seen = ids[pixel[i]] == id;
-            visible_inside += seen;
+            if (!inside[i]) continue;
+            visible_inside += seen[i];
             // An occluded ray's tfar is set to -inf.
-            if (!(seen || rays.tfar[i] < 0)) continue;
+            if (!(seen[i] || rays.tfar[i] < 0)) continue;
             ++count;
             if (masks) {
               const int x = x0 + i % kTile, y = y0 + i / kTile;
