@@ -94,9 +94,9 @@ struct Film {
 // shadow ray per light (stratified over the area lights) and one ambient ray. Uniform
 // (edges empty): every pixel takes spp samples, each with its own camera ray (stratified
 // jitter, a box filter). Adaptive: an edge pixel is sampled as in uniform; a flat pixel
-// traces one camera ray, through its centre, takes its base colour as the mean of 2x2
-// texture taps over the pixel's footprint, and lights that hit with FlatSamples(spp)
-// samples. Its lighting (radiance over base colour) is then averaged over the flat pixels
+// takes the hit of one camera ray through its centre (from centre_hits, or traced), its
+// base colour as the mean of 2x2 texture taps over the pixel's footprint, and lights that
+// hit with FlatSamples(spp) samples. Its lighting (radiance over base colour) is then averaged over the flat pixels
 // around it on the same surface (FilterFlatLighting): a flat pixel's noise is that of its
 // shadows and ambient obscurance, which vary slowly over a surface, while its texture,
 // which does not, keeps every pixel's own base colour.
