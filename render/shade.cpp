@@ -221,6 +221,22 @@ Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const Sh
       return InvalidArgumentError(fmt::format("shade: layout {}: adaptive sampling needs the layout's {}x{} mask pass",
                                               layout.index, layout.width, layout.height));
     }
+    // Flat pixels shade these hits without tracing them: a hit that names no triangle of
+    // this layout (another layout's mask pass) is refused here rather than read out of range.
+    for (size_t p = 0; p < masks->centre_hits.size(); ++p) {
+      const MaskPassResult::CentreHit& hit = masks->centre_hits[p];
+      if (hit.surface == MaskPassResult::CentreHit::kNothing) continue;
+      const size_t objects = layout.objects.size();
+      const size_t triangles = hit.surface < objects ? layout.objects[hit.surface].asset->mesh().TriangleCount()
+                               : hit.surface == objects ? layout.room->mesh().TriangleCount()
+                                                        : 0;
+      if (hit.triangle >= triangles) {
+        return InvalidArgumentError(fmt::format("shade: layout {}: mask pass pixel ({}, {}) hit surface {} triangle {}, "
+                                                "which the layout does not have",
+                                                layout.index, p % layout.width, p / layout.width, hit.surface,
+                                                hit.triangle));
+      }
+    }
     sampling.edges = EdgePixels(*masks);
     if (!masks->centre_hits.empty()) sampling.centre_hits = &masks->centre_hits;
   }

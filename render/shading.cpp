@@ -637,19 +637,13 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             lane.radiance = {};
             if (!traced[i] && !known[i]) continue;
             lane.covered = true;
-            Vec3f dir;
-            Hit h;
-            if (known[i]) {
-              lane.instance = centre->surface;
-              lane.depth = centre->distance;
-              dir = Normalized(ToFloat(RayDirection(camera, x + 0.5, y + 0.5)));
-              h = Surface(scene, frames, centre->surface, centre->triangle, centre->u, centre->v, dir);
-            } else {
-              lane.instance = rays.hit.instID[0][i];
-              lane.depth = rays.ray.tfar[i];
-              dir = {rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
-              h = Surface(scene, frames, rays.hit.instID[0][i], rays.hit.primID[i], rays.hit.u[i], rays.hit.v[i], dir);
-            }
+            lane.instance = known[i] ? centre->surface : rays.hit.instID[0][i];
+            lane.depth = known[i] ? centre->distance : rays.ray.tfar[i];
+            const Vec3f dir = known[i] ? Normalized(ToFloat(RayDirection(camera, x + 0.5, y + 0.5)))
+                                       : Vec3f{rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
+            const Hit h = known[i] ? Surface(scene, frames, lane.instance, centre->triangle, centre->u, centre->v, dir)
+                                   : Surface(scene, frames, lane.instance, rays.hit.primID[i], rays.hit.u[i],
+                                             rays.hit.v[i], dir);
             if (lane.edge) {
               lane.base = BaseColor(h.material, h.textures, h.u, h.v);
             } else {

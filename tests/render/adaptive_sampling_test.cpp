@@ -147,6 +147,14 @@ TEST(AdaptiveSampling, FlatPixelsLightTheMaskPassHitsInsteadOfTracingThem) {
   }
   EXPECT_LE(most, 2);
   EXPECT_LT(differing, from_rays.image.pixels.size() / 100);
+  // Hits naming a triangle or surface the layout lacks (another layout's pass) are refused.
+  for (const uint32_t surface : {0u, static_cast<uint32_t>(f.g.layout.objects.size() + 1)}) {
+    MaskPassResult other = f.g.masks;
+    other.centre_hits[100] = {surface, 1u << 30, 0.25f, 0.25f, 1.0f};
+    ShadeOptions o;
+    o.sampling = Sampling::kAdaptive;
+    EXPECT_EQ(render::Shade(f.g.layout, f.g.lights, o, textures, &other).status().code(), StatusCode::kInvalidArgument);
+  }
 }
 
 TEST(AdaptiveSampling, SameBytesForAnyThreadCount) {
