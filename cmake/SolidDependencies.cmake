@@ -14,6 +14,10 @@ find_package(fmt 9 REQUIRED)
 if(NOT TARGET PkgConfig::XXHASH)
   pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash>=0.8)
 endif()
+# PNG encoding (formats/png_encoder.cpp): Debian 12's libdeflate ships no CMake config.
+if(NOT TARGET PkgConfig::LIBDEFLATE)
+  pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate>=1.14)
+endif()
 find_package(Threads REQUIRED)
 find_package(draco 1.5 CONFIG REQUIRED)
 # solid::convert: meshoptimizer decodes EXT_meshopt_compression of glTF input.

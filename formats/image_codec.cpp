@@ -1,5 +1,7 @@
 #include "solid/formats/image_codec.h"
 
+#include "png_encoder.h"
+
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -28,9 +30,6 @@ void UseCallerThreadsOnly() {
     OIIO::attribute("exr_threads", 1);
   });
 }
-
-constexpr int kPngCompressionLevel = 4;
-constexpr int kPngFilterSub = 0x10;  // libpng's PNG_FILTER_SUB
 
 std::string FileNameFor(ImageFormat format) { return fmt::format("memory.{}", ImageFormatName(format)); }
 
@@ -200,22 +199,12 @@ Result<std::vector<uint8_t>> EncodeImage(const Image8& image, ImageFormat format
     return InvalidArgumentError(fmt::format("EncodeImage: {}x{}x{} does not match {} bytes", image.width,
                                             image.height, image.channels, image.pixels.size()));
   }
+  if (format == ImageFormat::kPng) return EncodePng(image);
   OIIO::ImageSpec spec(static_cast<int>(image.width), static_cast<int>(image.height),
                        static_cast<int>(image.channels), OIIO::TypeDesc::UINT8);
-  if (format == ImageFormat::kPng) {
-    // zlib level 4 instead of OpenImageIO's default 6: on our renders (320x240 and
-    // 640x480, levels 1-9 timed) it encodes 2.3-2.7x faster for 6-7% more bytes, and
-    // encoding is a large share of a small image's cost; levels 1-3 were barely faster
-    // again for 9-15% more bytes.
-    spec.attribute("png:compressionLevel", kPngCompressionLevel);
-    // One row filter (Sub) instead of libpng's default of trying all five per row: on
-    // 640x480 renders 1.3x faster to encode and 0.5% smaller (Up and Paeth: 4-5% larger).
-    spec.attribute("png:filter", kPngFilterSub);
-  } else {
-    // OpenImageIO 2.4's JPEG writer reads "Compression" ("jpeg:Q"); its WebP writer "CompressionQuality".
-    spec.attribute("Compression", fmt::format("{}:{}", ImageFormatName(format), quality));
-    spec.attribute("CompressionQuality", quality);
-  }
+  // OpenImageIO 2.4's JPEG writer reads "Compression" ("jpeg:Q"); its WebP writer "CompressionQuality".
+  spec.attribute("Compression", fmt::format("{}:{}", ImageFormatName(format), quality));
+  spec.attribute("CompressionQuality", quality);
   return Encode(FileNameFor(format), spec, image.pixels.data());
 }
 

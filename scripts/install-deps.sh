@@ -9,7 +9,7 @@ packages=(
   g++ cmake ninja-build pkg-config
   # libraries: docs/dependencies.md says what each one does, and where
   libsqlite3-dev libxxhash-dev nlohmann-json3-dev libcli11-dev libfmt-dev
-  libopenimageio-dev
+  libopenimageio-dev libdeflate-dev
   libembree-dev libdraco-dev libnlopt-dev
   # glTF input (`solid convert gltf`): tinygltf reads it, meshoptimizer decodes EXT_meshopt_compression
   libtinygltf-dev libmeshoptimizer-dev
