@@ -109,6 +109,7 @@ Result<QueryViewsResult> RenderQueryViews(const std::shared_ptr<const LoadedAsse
   const double scale = out.distance / kReferenceDistance;
   ShadingLight light;
   light.area = false;
+  light.at_eye = true;  // placed at each view's eye below
   light.power_w = static_cast<float>(options.light_power_w * scale * scale);
   scene.lights.push_back(light);
 

@@ -679,12 +679,15 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
               irradiance[i] = ray.irradiance;
               wi[i] = ray.direction;
               valid[i] = -1;
-              SetRayLane(&shadow, i, lane.origin, ray.direction, 0.0f, ray.distance);
+              if (!light.at_eye) SetRayLane(&shadow, i, lane.origin, ray.direction, 0.0f, ray.distance);
             }
-            count(valid);
-            if (AnyValid(valid)) rtcOccluded16(valid, scene.scene, &secondary, &shadow);
+            const bool shadowed = !light.at_eye && AnyValid(valid);
+            if (shadowed) {
+              count(valid);
+              rtcOccluded16(valid, scene.scene, &secondary, &shadow);
+            }
             for (int i = 0; i < kLanes; ++i) {
-              if (!valid[i] || shadow.tfar[i] < 0) continue;
+              if (!valid[i] || (shadowed && shadow.tfar[i] < 0)) continue;
               lanes[i].radiance = lanes[i].radiance + lanes[i].Reflected(wi[i], irradiance[i]);
             }
           }

@@ -70,6 +70,9 @@ struct ShadingLight {
   Vec3f u_axis, v_axis;  // area: the square's half-side vectors
   Vec3f normal;          // area: the emitting side
   float power_w = 0;
+  // A point light at the camera's eye lights every point the camera sees: the segment to
+  // it is the camera ray's own. Its shadow rays are not traced.
+  bool at_eye = false;
 };
 
 struct ShadingScene {
