@@ -1,7 +1,5 @@
 #include "solid/formats/image_codec.h"
 
-#include "png_encoder.h"
-
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -16,6 +14,8 @@
 #include <string>
 #include <string_view>
 #include <utility>
+
+#include "png_encoder.h"
 
 namespace solid {
 namespace OIIO = OIIO_NAMESPACE;
