@@ -223,10 +223,10 @@ Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const Sh
     }
     // Flat pixels shade these hits without tracing them: a hit that names no triangle of
     // this layout (another layout's mask pass) is refused here rather than read out of range.
+    const size_t objects = layout.objects.size();
     for (size_t p = 0; p < masks->centre_hits.size(); ++p) {
       const MaskPassResult::CentreHit& hit = masks->centre_hits[p];
       if (hit.surface == MaskPassResult::CentreHit::kNothing) continue;
-      const size_t objects = layout.objects.size();
       const size_t triangles = hit.surface < objects ? layout.objects[hit.surface].asset->mesh().TriangleCount()
                                : hit.surface == objects ? layout.room->mesh().TriangleCount()
                                                         : 0;
