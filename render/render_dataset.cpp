@@ -470,9 +470,10 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   if (options.format != ImageFormat::kPng) render["quality"] = options.quality;
   // Uniform sampling has no key. Adaptive sampling's value names its version, as resuming
   // a dataset of another with this one would mix two kinds of pixels: "adaptive"
-  // (unfiltered, 2026-12-02), "adaptive-filtered" (3x3 edges, 2026-12-03 morning), and
-  // this one (4-neighbour edges, flat pixels on the mask pass's hits).
-  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive-filtered-2";
+  // (unfiltered, 2026-12-02), "adaptive-filtered" (3x3 edges, 2026-12-03 morning),
+  // "adaptive-filtered-2" (4-neighbour edges, flat pixels on the mask pass's hits), and
+  // this one (a flat pixel's footprint under half a texel takes one texture lookup).
+  if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive-filtered-3";
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;

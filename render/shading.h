@@ -98,7 +98,8 @@ struct Film {
 // (edges empty): every pixel takes spp samples, each with its own camera ray (stratified
 // jitter, a box filter). Adaptive: an edge pixel is sampled as in uniform; a flat pixel
 // takes the hit of one camera ray through its centre (from centre_hits, or traced), its
-// base colour as the mean of 2x2 texture taps over the pixel's footprint, and lights that
+// base colour as the mean of 2x2 texture taps over the pixel's footprint (one tap at the
+// centre when the footprint is under half a texel across), and lights that
 // hit with FlatSamples(spp) samples. Its lighting (radiance over base colour) is then
 // averaged over the flat pixels around it on the same surface (FilterFlatLighting): a
 // flat pixel's noise is that of its shadows and ambient obscurance, which vary slowly over
