@@ -122,53 +122,103 @@ Vec3f CosineDirection(Vec3f n, std::array<float, 2> a) {
   return t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * std::sqrt(1 - a[0]);
 }
 
-struct Hit {
-  Vec3f position, geometric_normal, shading_normal;
-  float u = 0, v = 0;
-  Vec3f corners[3];    // the triangle, world
-  float corner_uv[6];  // its vertices' uvs
-  const gltf::Material* material = nullptr;
-  const DecodedTextures* textures = nullptr;
-};
-
 struct SurfaceFrames {
   Frame3f rotation;
   float scale;
   Vec3f translation;
 };
 
-Hit Surface(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames, uint32_t instance, uint32_t prim,
-            float b1, float b2, Vec3f dir) {
+// A triangle of the scene in world space with what shading a point of it needs that does
+// not depend on the point. Neighbouring pixels mostly hit the same triangle (a wall is
+// two), so the shader keeps the triangles it met last (TriangleCache).
+struct WorldTriangle {
+  uint32_t instance = UINT32_MAX, prim = 0;
+  Vec3f corners[3];
+  Vec3f normals[3];  // the vertices' shading normals, rotated, not normalised (zero: none)
+  Vec3f geometric_normal;  // unit, on the winding's side
+  float corner_uv[6];
+  const gltf::Material* material = nullptr;
+  const DecodedTextures* textures = nullptr;
+  // FootprintBaseColor's terms: the edges from corner 0, their cross product, and the
+  // inverse determinant of the barycentric solve (0 for a degenerate triangle).
+  Vec3f e1, e2, plane_normal;
+  float d00 = 0, d01 = 0, d11 = 0, inverse = 0;
+};
+
+WorldTriangle MakeWorldTriangle(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames,
+                                uint32_t instance, uint32_t prim) {
   const ShadingSurface& s = scene.surfaces[instance];
   const SurfaceFrames& f = frames[instance];
   const MeshGeometry& m = *s.mesh;
-  const uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
-  auto position = [&](uint32_t i) { return Vec3f{m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]}; };
-  auto normal = [&](uint32_t i) { return Vec3f{m.normals[3 * i], m.normals[3 * i + 1], m.normals[3 * i + 2]}; };
+  WorldTriangle t;
+  t.instance = instance;
+  t.prim = prim;
+  const uint32_t corners[3] = {m.indices[3 * prim], m.indices[3 * prim + 1], m.indices[3 * prim + 2]};
+  Vec3f object[3];
+  for (int k = 0; k < 3; ++k) {
+    const uint32_t i = corners[k];
+    object[k] = {m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]};
+    t.corners[k] = f.rotation * (object[k] * f.scale) + f.translation;
+    // Instances scale uniformly, so the normals' inverse transpose is the rotation itself.
+    t.normals[k] = f.rotation * Vec3f{m.normals[3 * i], m.normals[3 * i + 1], m.normals[3 * i + 2]};
+    t.corner_uv[2 * k] = m.uvs[2 * i];
+    t.corner_uv[2 * k + 1] = m.uvs[2 * i + 1];
+  }
+  t.geometric_normal = Normalized(f.rotation * Cross(object[1] - object[0], object[2] - object[0]));
+  const uint32_t material = m.triangle_material[prim];
+  if (material < s.materials->size()) t.material = &(*s.materials)[material];
+  t.textures = s.textures;
+  t.e1 = t.corners[1] - t.corners[0];
+  t.e2 = t.corners[2] - t.corners[0];
+  t.plane_normal = Cross(t.e1, t.e2);
+  t.d00 = Dot(t.e1, t.e1);
+  t.d01 = Dot(t.e1, t.e2);
+  t.d11 = Dot(t.e2, t.e2);
+  const float determinant = t.d00 * t.d11 - t.d01 * t.d01;
+  t.inverse = determinant > 0 ? 1 / determinant : 0;
+  return t;
+}
+
+// The world triangles a thread met last, direct-mapped by (instance, triangle).
+class TriangleCache {
+ public:
+  TriangleCache() : entries_(kEntries) {}
+  const WorldTriangle& Get(const ShadingScene& scene, const std::vector<SurfaceFrames>& frames, uint32_t instance,
+                           uint32_t prim) {
+    const uint32_t slot = ((prim * 0x9E3779B1u) ^ (instance * 0x85EBCA77u)) >> (32 - kBits);
+    WorldTriangle& entry = entries_[slot];
+    if (entry.instance != instance || entry.prim != prim) entry = MakeWorldTriangle(scene, frames, instance, prim);
+    return entry;
+  }
+
+ private:
+  static constexpr int kBits = 8;
+  static constexpr size_t kEntries = size_t{1} << kBits;
+  std::vector<WorldTriangle> entries_;
+};
+
+struct Hit {
+  Vec3f position, geometric_normal, shading_normal;
+  float u = 0, v = 0;
+  const WorldTriangle* triangle = nullptr;
+};
+
+// The point of `t` at barycentrics (b1, b2), seen along dir.
+Hit Surface(const WorldTriangle& t, float b1, float b2, Vec3f dir) {
   const float b0 = 1.0f - b1 - b2;
-  const Vec3f p0 = position(i0), p1 = position(i1), p2 = position(i2);
   Hit h;
+  h.triangle = &t;
   // From the barycentrics rather than origin + t * dir: the error then does not grow
   // with the distance to the camera, and shadow rays need a smaller offset.
-  h.position = f.rotation * ((p0 * b0 + p1 * b1 + p2 * b2) * f.scale) + f.translation;
-  // Instances scale uniformly, so the normals' inverse transpose is the rotation itself.
-  h.geometric_normal = Normalized(f.rotation * Cross(p1 - p0, p2 - p0));
-  const Vec3f ns = normal(i0) * b0 + normal(i1) * b1 + normal(i2) * b2;
-  h.shading_normal = Dot(ns, ns) > 1e-12f ? Normalized(f.rotation * ns) : h.geometric_normal;
+  h.position = t.corners[0] * b0 + t.corners[1] * b1 + t.corners[2] * b2;
+  h.geometric_normal = t.geometric_normal;
+  const Vec3f ns = t.normals[0] * b0 + t.normals[1] * b1 + t.normals[2] * b2;
+  h.shading_normal = Dot(ns, ns) > 1e-12f ? Normalized(ns) : h.geometric_normal;
   // Two-sided: face the viewer; the shading normal stays on the geometric side.
   if (Dot(h.geometric_normal, dir) > 0) h.geometric_normal = h.geometric_normal * -1.0f;
   if (Dot(h.shading_normal, h.geometric_normal) < 0) h.shading_normal = h.shading_normal * -1.0f;
-  const uint32_t corners[3] = {i0, i1, i2};
-  for (int k = 0; k < 3; ++k) {
-    h.corners[k] = f.rotation * (position(corners[k]) * f.scale) + f.translation;
-    h.corner_uv[2 * k] = m.uvs[2 * corners[k]];
-    h.corner_uv[2 * k + 1] = m.uvs[2 * corners[k] + 1];
-  }
-  h.u = m.uvs[2 * i0] * b0 + m.uvs[2 * i1] * b1 + m.uvs[2 * i2] * b2;
-  h.v = m.uvs[2 * i0 + 1] * b0 + m.uvs[2 * i1 + 1] * b1 + m.uvs[2 * i2 + 1] * b2;
-  const uint32_t material = m.triangle_material[prim];
-  if (material < s.materials->size()) h.material = &(*s.materials)[material];
-  h.textures = s.textures;
+  h.u = t.corner_uv[0] * b0 + t.corner_uv[2] * b1 + t.corner_uv[4] * b2;
+  h.v = t.corner_uv[1] * b0 + t.corner_uv[3] * b1 + t.corner_uv[5] * b2;
   return h;
 }
 
@@ -364,28 +414,24 @@ namespace {
 // within it as an edge pixel's four jittered camera rays do, at the cost of three more
 // texture lookups instead of three more camera rays.
 Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
-  const DecodedTextures::Texture* tex = TextureOf(h.material, h.textures);
-  if (tex == nullptr) return Factor(h.material);
-  const Vec3f e1 = h.corners[1] - h.corners[0], e2 = h.corners[2] - h.corners[0];
-  const Vec3f n = Cross(e1, e2);
-  const float d00 = Dot(e1, e1), d01 = Dot(e1, e2), d11 = Dot(e2, e2);
-  const float denominator = d00 * d11 - d01 * d01;
-  if (!(denominator > 0)) return BaseColor(h.material, h.textures, h.u, h.v);
-  const float inverse = 1 / denominator;
-  const float plane = Dot(h.corners[0] - eye, n);
+  const WorldTriangle& t = *h.triangle;
+  const DecodedTextures::Texture* tex = TextureOf(t.material, t.textures);
+  if (tex == nullptr) return Factor(t.material);
+  if (!(t.inverse > 0)) return BaseColor(t.material, t.textures, h.u, h.v);
+  const float plane = Dot(t.corners[0] - eye, t.plane_normal);
   auto uv_along = [&](Vec3f dir, float* u, float* v) {
-    const float t = plane / Dot(dir, n);
-    if (!(t > 0) || !std::isfinite(t)) return false;
-    const Vec3f q = eye + dir * t - h.corners[0];
-    const float d20 = Dot(q, e1), d21 = Dot(q, e2);
-    const float b1 = (d11 * d20 - d01 * d21) * inverse, b2 = (d00 * d21 - d01 * d20) * inverse;
+    const float distance = plane / Dot(dir, t.plane_normal);
+    if (!(distance > 0) || !std::isfinite(distance)) return false;
+    const Vec3f q = eye + dir * distance - t.corners[0];
+    const float d20 = Dot(q, t.e1), d21 = Dot(q, t.e2);
+    const float b1 = (t.d11 * d20 - t.d01 * d21) * t.inverse, b2 = (t.d00 * d21 - t.d01 * d20) * t.inverse;
     const float b0 = 1 - b1 - b2;
-    *u = h.corner_uv[0] * b0 + h.corner_uv[2] * b1 + h.corner_uv[4] * b2;
-    *v = h.corner_uv[1] * b0 + h.corner_uv[3] * b1 + h.corner_uv[5] * b2;
+    *u = t.corner_uv[0] * b0 + t.corner_uv[2] * b1 + t.corner_uv[4] * b2;
+    *v = t.corner_uv[1] * b0 + t.corner_uv[3] * b1 + t.corner_uv[5] * b2;
     return std::isfinite(*u) && std::isfinite(*v);
   };
   float ux = 0, vx = 0, uy = 0, vy = 0;
-  if (!uv_along(dir_dx, &ux, &vx) || !uv_along(dir_dy, &uy, &vy)) return BaseColor(h.material, h.textures, h.u, h.v);
+  if (!uv_along(dir_dx, &ux, &vx) || !uv_along(dir_dy, &uy, &vy)) return BaseColor(t.material, t.textures, h.u, h.v);
   const float dux = ux - h.u, dvx = vx - h.v, duy = uy - h.u, dvy = vy - h.v;
   // Taps within kFootprintTexels of the centre: their mean differs from the centre's
   // bilinear value only by the texture's curvature over a quarter texel (not at all for an
@@ -394,7 +440,7 @@ Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
   const float reach_u = (std::fabs(dux) + std::fabs(duy)) * 0.25f * static_cast<float>(tex->width);
   const float reach_v = (std::fabs(dvx) + std::fabs(dvy)) * 0.25f * static_cast<float>(tex->height);
   if (reach_u < kFootprintTexels && reach_v < kFootprintTexels) {
-    return Factor(h.material) * SampleTexture(*tex, h.u, h.v);
+    return Factor(t.material) * SampleTexture(*tex, h.u, h.v);
   }
   Vec3f sum;
   for (const float sx : {-0.25f, 0.25f}) {
@@ -402,7 +448,7 @@ Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
       sum = sum + SampleTexture(*tex, h.u + sx * dux + sy * duy, h.v + sx * dvx + sy * dvy);
     }
   }
-  return Factor(h.material) * (sum * 0.25f);
+  return Factor(t.material) * (sum * 0.25f);
 }
 
 }  // namespace
@@ -592,6 +638,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     // its tile, its thread or the other pixels' hits.
     std::vector<PixelSampler> samplers(kLanes, PixelSampler(std::max(spp, flat_spp), dims));
     std::vector<Rng> rngs(kLanes, Rng(0, kShadingStream));
+    TriangleCache triangles;
     std::array<Lane, kLanes> lanes;
     alignas(64) int inside[kLanes], hit[kLanes], active[kLanes], valid[kLanes], traced[kLanes];
     bool known[kLanes];
@@ -662,17 +709,19 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
                                          direction_per_y * (static_cast<float>(y) + 0.5f);
             const Vec3f dir = known[i] ? Normalized(through_centre)
                                        : Vec3f{rays.ray.dir_x[i], rays.ray.dir_y[i], rays.ray.dir_z[i]};
-            const Hit h = known[i] ? Surface(scene, frames, lane.instance, centre->triangle, centre->u, centre->v, dir)
-                                   : Surface(scene, frames, lane.instance, rays.hit.primID[i], rays.hit.u[i],
-                                             rays.hit.v[i], dir);
+            const WorldTriangle& triangle =
+                triangles.Get(scene, frames, lane.instance, known[i] ? centre->triangle : rays.hit.primID[i]);
+            const Hit h = known[i] ? Surface(triangle, centre->u, centre->v, dir)
+                                   : Surface(triangle, rays.hit.u[i], rays.hit.v[i], dir);
             if (lane.edge) {
-              lane.base = BaseColor(h.material, h.textures, h.u, h.v);
+              lane.base = BaseColor(triangle.material, triangle.textures, h.u, h.v);
             } else {
               lane.base =
                   FootprintBaseColor(h, eye, through_centre + direction_per_x, through_centre + direction_per_y);
             }
-            const float metallic = h.material != nullptr ? std::clamp(h.material->metallic, 0.0f, 1.0f) : 0.0f;
-            const float roughness = h.material != nullptr ? std::clamp(h.material->roughness, 0.0f, 1.0f) : 1.0f;
+            const gltf::Material* material = triangle.material;
+            const float metallic = material != nullptr ? std::clamp(material->metallic, 0.0f, 1.0f) : 0.0f;
+            const float roughness = material != nullptr ? std::clamp(material->roughness, 0.0f, 1.0f) : 1.0f;
             lane.diffuse = lane.base * ((1 - metallic) / kPi);
             lane.f0 = Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + lane.base * metallic;
             const float alpha2 = std::max(roughness * roughness * roughness * roughness, 1e-6f);
