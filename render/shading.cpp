@@ -78,36 +78,6 @@ Vec3f LightPoint(const ShadingLight& light, std::array<float, 2> a) {
   return light.position + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
 }
 
-// What a light sends from one of its points to a surface point, before its shadow ray.
-struct LightRay {
-  Vec3f direction;
-  float distance = 0, irradiance = 0;
-  bool valid = false;  // the point faces the surface and lies above it
-};
-
-LightRay TowardsLight(const ShadingLight& light, Vec3f point, Vec3f origin, Vec3f n, Vec3f ng) {
-  LightRay out;
-  Vec3f w = point - origin;
-  const float d2 = std::max(Dot(w, w), 1e-4f);
-  const float d = std::sqrt(d2);
-  w = w * (1 / d);
-  const float cos_s = Dot(n, w);
-  // Below the geometric surface the shadow ray would hit its own triangle.
-  if (cos_s <= 0 || Dot(ng, w) <= 0) return out;
-  // Cycles: an area light's radiance is P / (4 A); a point light's intensity P / (4 pi^2).
-  if (light.area) {
-    const float cos_l = -Dot(light.normal, w);
-    if (cos_l <= 0) return out;
-    out.irradiance = light.power_w / 4 * cos_l * cos_s / d2;
-  } else {
-    out.irradiance = light.power_w / (4 * kPi * kPi) * cos_s / d2;
-  }
-  out.direction = w;
-  out.distance = d;
-  out.valid = true;
-  return out;
-}
-
 // A single sample brighter than kMaxSampleRadiance would whiten its pixel alone (a firefly).
 Vec3f Clamped(Vec3f radiance) {
   return {std::min(radiance.x, kMaxSampleRadiance), std::min(radiance.y, kMaxSampleRadiance),
@@ -642,10 +612,11 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     std::array<Lane, kLanes> lanes;
     alignas(64) int inside[kLanes], hit[kLanes], active[kLanes], valid[kLanes], traced[kLanes];
     bool known[kLanes];
-    std::array<Vec3f, kLanes> wi;
-    std::array<float, kLanes> irradiance;
+    alignas(64) float wi[3][kLanes], irradiance[kLanes];
     RTCRayHit16 rays;
     RTCRay16 shadow;
+    // The shadow rays' fields that never change; the loop over the lights sets the rest.
+    for (int i = 0; i < kLanes; ++i) SetRayLane(&shadow, i, Vec3f{}, Vec3f{}, 0.0f);
     uint64_t traced_rays = 0;
     auto count = [&traced_rays](const int* mask) {
       for (int i = 0; i < kLanes; ++i) traced_rays += mask[i] != 0;
@@ -736,20 +707,48 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
           }
           if (!AnyValid(active)) continue;
+          // The lanes' ray origins and normals in columns, so that the loop over the lanes
+          // below has no branches and the compiler vectorises it (inactive lanes hold stale
+          // values and are masked).
+          alignas(64) float origin[3][kLanes], normal[3][kLanes], geometric[3][kLanes];
+          for (int i = 0; i < kLanes; ++i) {
+            const Lane& lane = lanes[i];
+            origin[0][i] = lane.origin.x, origin[1][i] = lane.origin.y, origin[2][i] = lane.origin.z;
+            normal[0][i] = lane.n.x, normal[1][i] = lane.n.y, normal[2][i] = lane.n.z;
+            geometric[0][i] = lane.ng.x, geometric[1][i] = lane.ng.y, geometric[2][i] = lane.ng.z;
+          }
           for (size_t l = 0; l < scene.lights.size(); ++l) {
             const ShadingLight& light = scene.lights[l];
+            alignas(64) float point[3][kLanes];
             for (int i = 0; i < kLanes; ++i) {
-              valid[i] = 0;
-              if (!active[i]) continue;
-              Lane& lane = lanes[i];
-              const Vec3f point =
-                  light.area ? LightPoint(light, samplers[i].Get(s, static_cast<int>(l))) : light.position;
-              const LightRay ray = TowardsLight(light, point, lane.origin, lane.n, lane.ng);
-              if (!ray.valid) continue;
-              irradiance[i] = ray.irradiance;
-              wi[i] = ray.direction;
-              valid[i] = -1;
-              if (!light.at_eye) SetRayLane(&shadow, i, lane.origin, ray.direction, 0.0f, ray.distance);
+              const Vec3f p =
+                  active[i] && light.area ? LightPoint(light, samplers[i].Get(s, static_cast<int>(l))) : light.position;
+              point[0][i] = p.x, point[1][i] = p.y, point[2][i] = p.z;
+            }
+            // What the light sends from its point to each lane's surface point before the
+            // shadow ray. Cycles: an area light's radiance is P / (4 A), a point light's
+            // intensity P / (4 pi^2).
+            const bool area = light.area;
+            const float power = area ? light.power_w / 4 : light.power_w / (4 * kPi * kPi);
+            for (int i = 0; i < kLanes; ++i) {
+              float wx = point[0][i] - origin[0][i], wy = point[1][i] - origin[1][i], wz = point[2][i] - origin[2][i];
+              const float d2 = std::max(wx * wx + wy * wy + wz * wz, 1e-4f);
+              const float d = std::sqrt(d2);
+              const float inverse = 1 / d;
+              wx = wx * inverse, wy = wy * inverse, wz = wz * inverse;
+              const float cos_s = normal[0][i] * wx + normal[1][i] * wy + normal[2][i] * wz;
+              // Below the geometric surface the shadow ray would hit its own triangle.
+              const float cos_g = geometric[0][i] * wx + geometric[1][i] * wy + geometric[2][i] * wz;
+              const float cos_l = -(light.normal.x * wx + light.normal.y * wy + light.normal.z * wz);
+              // Bitwise, not short-circuit: a branch would keep the loop from being vectorised.
+              const bool lit = (active[i] != 0) & !(cos_s <= 0) & !(cos_g <= 0) & (!area | !(cos_l <= 0));
+              valid[i] = -static_cast<int>(lit);
+              irradiance[i] = power * (area ? cos_l : 1.0f) * cos_s / d2;
+              wi[0][i] = wx, wi[1][i] = wy, wi[2][i] = wz;
+              shadow.org_x[i] = origin[0][i], shadow.org_y[i] = origin[1][i], shadow.org_z[i] = origin[2][i];
+              shadow.dir_x[i] = wx, shadow.dir_y[i] = wy, shadow.dir_z[i] = wz;
+              shadow.tnear[i] = 0;
+              shadow.tfar[i] = d;
             }
             const bool shadowed = !light.at_eye && AnyValid(valid);
             if (shadowed) {
@@ -758,7 +757,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             }
             for (int i = 0; i < kLanes; ++i) {
               if (!valid[i] || (shadowed && shadow.tfar[i] < 0)) continue;
-              lanes[i].radiance = lanes[i].radiance + lanes[i].Reflected(wi[i], irradiance[i]);
+              lanes[i].radiance = lanes[i].radiance + lanes[i].Reflected({wi[0][i], wi[1][i], wi[2][i]}, irradiance[i]);
             }
           }
           for (int i = 0; i < kLanes; ++i) {
