@@ -474,6 +474,10 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   // "adaptive-filtered-2" (4-neighbour edges, flat pixels on the mask pass's hits), and
   // this one (a flat pixel's footprint under half a texel takes one texture lookup).
   if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive-filtered-3";
+  // The shader's arithmetic, for every image and query view: 2 since 2026-12-03 (evening),
+  // when hit points came to be interpolated between world-space corners (the values differ
+  // in the last bits, some 8-bit values by one); before, no key.
+  render["shading"] = 2;
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;
