@@ -707,9 +707,10 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
           }
           if (!AnyValid(active)) continue;
-          // The lanes' ray origins and normals in columns, so that the loop over the lanes
-          // below has no branches and the compiler vectorises it (inactive lanes hold stale
-          // values and are masked).
+          // The lanes' ray origins and normals in columns, for the loop over the lanes below,
+          // which has no branches: the lanes' square roots and divisions then overlap instead
+          // of waiting on a mispredicted early return each (inactive lanes hold stale values
+          // and are masked). GCC 12 does not vectorise it; it took 0-3.5% off shading.
           alignas(64) float origin[3][kLanes], normal[3][kLanes], geometric[3][kLanes];
           for (int i = 0; i < kLanes; ++i) {
             const Lane& lane = lanes[i];
@@ -740,7 +741,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
               // Below the geometric surface the shadow ray would hit its own triangle.
               const float cos_g = geometric[0][i] * wx + geometric[1][i] * wy + geometric[2][i] * wz;
               const float cos_l = -(light.normal.x * wx + light.normal.y * wy + light.normal.z * wz);
-              // Bitwise, not short-circuit: a branch would keep the loop from being vectorised.
+              // Bitwise, not short-circuit: no branch per lane.
               const bool lit = (active[i] != 0) & !(cos_s <= 0) & !(cos_g <= 0) & (!area | !(cos_l <= 0));
               valid[i] = -static_cast<int>(lit);
               irradiance[i] = power * (area ? cos_l : 1.0f) * cos_s / d2;
@@ -757,7 +758,8 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             }
             for (int i = 0; i < kLanes; ++i) {
               if (!valid[i] || (shadowed && shadow.tfar[i] < 0)) continue;
-              lanes[i].radiance = lanes[i].radiance + lanes[i].Reflected({wi[0][i], wi[1][i], wi[2][i]}, irradiance[i]);
+              const Vec3f towards_light{wi[0][i], wi[1][i], wi[2][i]};
+              lanes[i].radiance = lanes[i].radiance + lanes[i].Reflected(towards_light, irradiance[i]);
             }
           }
           for (int i = 0; i < kLanes; ++i) {
