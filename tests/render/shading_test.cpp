@@ -5,7 +5,6 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <numbers>
 
 #include "instance_scene.h"
 #include "render/test_assets.h"
@@ -63,7 +62,6 @@ TEST(Shading, ALightAtTheEyeTracesNoShadowRaysAndLightsTheSame) {
   }
   rtcReleaseDevice(device);
 }
-
 
 // A flat pixel's base colour (FilmSampling) on a camera-facing textured square lit only by
 // a unit ambient, so that the film holds the base colour itself: the bilinear texture value
