@@ -99,12 +99,12 @@ struct Film {
 // jitter, a box filter). Adaptive: an edge pixel is sampled as in uniform; a flat pixel
 // takes the hit of one camera ray through its centre (from centre_hits, or traced), its
 // base colour as the mean of 2x2 texture taps over the pixel's footprint (one tap at the
-// centre when the footprint is under half a texel across), and lights that
-// hit with FlatSamples(spp) samples. Its lighting (radiance over base colour) is then
-// averaged over the flat pixels around it on the same surface (FilterFlatLighting): a
-// flat pixel's noise is that of its shadows and ambient obscurance, which vary slowly over
-// a surface, while its texture, which does not, keeps every pixel's own base colour. A
-// light marked at_eye adds no shadow rays.
+// centre when the footprint is under half a texel across), and lights that hit with
+// FlatSamples(spp) samples. Its lighting (radiance over base colour) is then averaged over
+// the flat pixels around it on the same surface (FilterFlatLighting): a flat pixel's noise
+// is that of its shadows and ambient obscurance, which vary slowly over a surface, while
+// its texture, which does not, keeps every pixel's own base colour. A light marked at_eye
+// adds no shadow rays.
 struct FilmSampling {
   int spp = 4;
   // 1 for an edge pixel, 0 for a flat one, row-major; empty: every pixel is an edge.
