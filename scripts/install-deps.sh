@@ -19,6 +19,9 @@ packages=(
   chromium
   # the Python reader (python/) and its tests: Debian's python3 with NumPy, Pillow (PNG decoding) and PyTorch
   python3 python3-numpy python3-pil python3-torch
+  # pretraining and fine-tuning (python/solid_data/pretrain.py, finetune.py): torchvision's detectors,
+  # OpenBLAS (15x the reference BLAS on a Faster R-CNN step), Cython to build pycocotools for COCOeval
+  python3-torchvision libopenblas0-pthread cython3 python3-dev
   # the farm tests (tests/farm): a single-node Slurm cluster they start and stop themselves
   slurm-wlm munge
 )

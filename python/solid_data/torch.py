@@ -45,14 +45,24 @@ class PretrainBatchSampler(torch.utils.data.Sampler):
     batch is dropped). An epoch thus uses every image with instances twice.
 
     Images without instances are skipped, as the reference skips images without boxes.
+
+    Distributed (``world_size`` > 1): the stream is cut into global batches of
+    ``targets_per_batch * world_size`` and rank ``rank`` takes its slice of each; the spec of
+    global batch b on rank r has index ``b * world_size + r``, so every rank's queries and
+    augmentations are drawn independently.
     """
 
-    def __init__(self, dataset: Dataset, *, targets_per_batch: int = 16, cache_images: int = 1250, seed: int = 0):
+    def __init__(self, dataset: Dataset, *, targets_per_batch: int = 16, cache_images: int = 1250, seed: int = 0,
+                 rank: int = 0, world_size: int = 1):
         if targets_per_batch < 1 or cache_images < 1:
             raise ValueError("targets_per_batch and cache_images must be >= 1")
+        if world_size < 1 or not 0 <= rank < world_size:
+            raise ValueError(f"rank {rank} is not in a world of {world_size}")
         self.targets_per_batch = targets_per_batch
         self.cache_images = cache_images
         self.seed = int(seed)
+        self.rank = rank
+        self.world_size = world_size
         self.epoch = 0
         ids, shards = dataset.annotated_image_ids, dataset.annotated_image_shards
         self._shards = [ids[shards == s] for s in np.unique(shards)]
@@ -75,9 +85,9 @@ class PretrainBatchSampler(torch.utils.data.Sampler):
         if cache:
             stream.extend(self._twice(rng, cache))
         flat = np.concatenate(stream) if stream else np.zeros(0, dtype=np.int64)
-        t = self.targets_per_batch
-        return [BatchSpec(self.seed, epoch, b, tuple(int(i) for i in flat[b * t:(b + 1) * t]))
-                for b in range(flat.size // t)]
+        t, r, w = self.targets_per_batch, self.rank, self.world_size
+        return [BatchSpec(self.seed, epoch, b * w + r, tuple(int(i) for i in flat[(b * w + r) * t:(b * w + r + 1) * t]))
+                for b in range(flat.size // (t * w))]
 
     @staticmethod
     def _twice(rng: np.random.Generator, cache: list[np.ndarray]) -> list[np.ndarray]:
@@ -88,7 +98,7 @@ class PretrainBatchSampler(torch.utils.data.Sampler):
         return iter(self.batches(self.epoch))
 
     def __len__(self) -> int:
-        return 2 * self._images // self.targets_per_batch
+        return 2 * self._images // (self.targets_per_batch * self.world_size)
 
 
 class PretrainDataset(torch.utils.data.Dataset):
@@ -136,6 +146,8 @@ class PretrainDataset(torch.utils.data.Dataset):
             "query_images": query_images,
             "query_sizes": query_sizes,
             "query_model_keys": query_models,
+            # Each query's position in ``dataset.model_keys``: the model's entry in a memory bank.
+            "query_model_ids": torch.tensor([self._model_position[k] for k in query_models], dtype=torch.int64),
             "query_view_indices": torch.tensor(query_views, dtype=torch.int64),
             "positive_queries": positives,
         }
