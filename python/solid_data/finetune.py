@@ -28,7 +28,7 @@ import torch
 import torch.utils.data
 
 from .detection.coco import CocoDetection, CocoError, STAT_NAMES, collate, evaluate, import_pycocotools
-from .detection.config import ConfigError, build_detector, load_config, parse_override
+from .detection.config import ConfigError, build_detector, load_config, parse_override, warmup_cosine
 
 __all__ = ["FinetuneOptions", "FinetuneReport", "FinetuneError", "finetune", "load_init", "learning_rate", "main"]
 
@@ -77,12 +77,8 @@ class FinetuneReport:
 
 
 def learning_rate(base: float, warmup: int, iterations: int, iteration: int) -> float:
-    """Linear warm-up from 1e-3 of ``base`` over ``warmup`` iterations, then cosine to 0 at
-    ``iterations``."""
-    if iteration < warmup:
-        return base * (_WARMUP_FACTOR + (1 - _WARMUP_FACTOR) * iteration / warmup)
-    progress = (iteration - warmup) / max(1, iterations - warmup)
-    return base * 0.5 * (1.0 + math.cos(math.pi * min(1.0, progress)))
+    """torchvision's references: warm-up from 1e-3 of ``base``, then cosine to 0 at ``iterations``."""
+    return warmup_cosine(base, iteration, warmup, iterations, warmup_factor=_WARMUP_FACTOR, final_fraction=0.0)
 
 
 def load_init(model: torch.nn.Module, path: str | os.PathLike) -> None:

@@ -31,7 +31,7 @@ import torch.utils.data
 import torchvision
 
 from .dataset import Dataset
-from .detection.config import ConfigError, load_config, parse_override, short_sides
+from .detection.config import ConfigError, load_config, parse_override, short_sides, warmup_cosine
 from .detection.wrapper import SolidWrapper, export_state_dict, world
 from .torch import BatchSpec, PretrainBatchSampler, PretrainDataset
 
@@ -67,17 +67,10 @@ class PretrainReport:
 
 
 def learning_rate(config: dict[str, Any], iteration: int) -> float:
-    """The reference's schedule: linear warm-up from 1e-4 of the rate, then constant or cosine
-    from the rate to 0.01 of it over ``iterations``."""
-    base = config["lr"]
-    warmup = config["warmup_iterations"]
-    if iteration < warmup:
-        fraction = iteration / warmup
-        return base * (1e-4 + (1 - 1e-4) * fraction)
-    if config["schedule"] == "constant":
-        return base
-    progress = min(1.0, (iteration - warmup) / max(1, config["iterations"] - warmup))
-    return base * (0.01 + 0.99 * 0.5 * (1.0 + math.cos(math.pi * progress)))
+    """The reference's schedule: warm-up from 1e-4 of the rate, then constant or cosine from
+    the rate to 0.01 of it over ``iterations``."""
+    return warmup_cosine(config["lr"], iteration, config["warmup_iterations"], config["iterations"],
+                         warmup_factor=1e-4, final_fraction=0.01, cosine=config["schedule"] == "cosine")
 
 
 class _SpecStream(torch.utils.data.Sampler):

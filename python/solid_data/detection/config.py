@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import math
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +17,8 @@ import torch
 import torchvision
 from torchvision.ops import misc as misc_ops
 
-__all__ = ["CONFIG_DIR", "ConfigError", "load_config", "parse_override", "build_detector", "DETECTORS"]
+__all__ = ["CONFIG_DIR", "ConfigError", "load_config", "parse_override", "short_sides", "build_detector",
+           "warmup_cosine", "DETECTORS"]
 
 CONFIG_DIR = Path(__file__).with_name("configs")
 
@@ -158,3 +160,16 @@ def build_detector(config: dict[str, Any], num_classes: int) -> torch.nn.Module:
     if config["norm"] == "frozen":
         _freeze_batchnorm(model)
     return model
+
+
+def warmup_cosine(base: float, iteration: int, warmup: int, iterations: int, *,
+                  warmup_factor: float, final_fraction: float, cosine: bool = True) -> float:
+    """The learning rate of both commands: linear warm-up from ``warmup_factor`` of ``base``
+    over ``warmup`` iterations, then (unless ``cosine`` is off, a constant rate) a half cosine
+    from ``base`` to ``final_fraction`` of it at ``iterations``."""
+    if iteration < warmup:
+        return base * (warmup_factor + (1 - warmup_factor) * iteration / warmup)
+    if not cosine:
+        return base
+    progress = min(1.0, (iteration - warmup) / max(1, iterations - warmup))
+    return base * (final_fraction + (1 - final_fraction) * 0.5 * (1.0 + math.cos(math.pi * progress)))
