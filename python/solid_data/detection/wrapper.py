@@ -2,16 +2,17 @@
 
 The *target detector* is the config's torchvision detector whose classifier is replaced by a
 256-d embedding per RoI (`EmbeddingPredictor`), with class-agnostic box regression and mask
-head (`TargetRoIHeads`). The *query encoder* is a momentum copy (EMAN: parameters and
-normalisation statistics alike) of its backbone, box head and embedding: RoIAlign over each
-query's whole unpadded box, the two FC layers of 1024, the linear embedding. A *memory bank*
+head (`TargetRoIHeads`). The *query encoder* is a momentum copy of its backbone, box head and
+embedding (parameters only, normalising each query batch by its own statistics as the
+reference's default does; or EMAN, statistics averaged too): RoIAlign over each query's whole
+unpadded box, the two FC layers of 1024, the linear embedding. A *memory bank*
 holds one embedding per model; each step writes the step's query embeddings into it, gathered
 over ranks and de-duplicated by model, and every foreground RoI is classified against all of
 its entries (InfoNCE at temperature tau).
 
-Losses are normalised over the union batch of all ranks (foreground RoIs for L_con, sampled
-RoIs for the box regression), so that N ranks give one rank's numbers on their union; the RPN
-keeps torchvision's per-image normalisation.
+The losses are normalised over the union batch of all ranks (foreground RoIs for L_con, sampled
+RoIs for the box regression, sampled anchors for the RPN), so that N ranks give one rank's
+numbers on their union; only Mask R-CNN's mask loss keeps torchvision's mean over one rank.
 """
 
 from __future__ import annotations
@@ -25,12 +26,13 @@ import torch.nn.functional as F
 from torch import nn
 from torchvision.models.detection.mask_rcnn import MaskRCNNPredictor
 from torchvision.models.detection.roi_heads import RoIHeads, maskrcnn_loss
+from torchvision.models.detection.rpn import RegionProposalNetwork
 from torchvision.models.detection.transform import GeneralizedRCNNTransform
 
 from .config import build_detector
 
-__all__ = ["EmbeddingPredictor", "TargetRoIHeads", "SolidWrapper", "PREDICTOR_PREFIXES", "export_state_dict",
-           "world"]
+__all__ = ["EmbeddingPredictor", "UnionRPN", "TargetRoIHeads", "SolidWrapper", "PREDICTOR_PREFIXES",
+           "export_state_dict", "world"]
 
 # The keys a fine-tuning model does not take from pretraining: its classifier and box
 # regressor (and the mask head's per-class logits), which depend on its categories.
@@ -71,6 +73,34 @@ class _StoredSize(GeneralizedRCNNTransform):
 
     def resize(self, image, target=None):
         return image, target
+
+
+class UnionRPN(RegionProposalNetwork):
+    """torchvision's RPN with its losses normalised over the sampled anchors of every rank:
+    its own mean over one rank's anchors would weigh a rank's anchors by that rank's count."""
+
+    @classmethod
+    def like(cls, rpn: RegionProposalNetwork) -> "UnionRPN":
+        union = cls(rpn.anchor_generator, rpn.head, rpn.proposal_matcher.high_threshold,
+                    rpn.proposal_matcher.low_threshold, rpn.fg_bg_sampler.batch_size_per_image,
+                    rpn.fg_bg_sampler.positive_fraction, rpn._pre_nms_top_n, rpn._post_nms_top_n, rpn.nms_thresh,
+                    rpn.score_thresh)
+        union.min_size = rpn.min_size
+        return union
+
+    def compute_loss(self, objectness, pred_bbox_deltas, labels, regression_targets):
+        positive, negative = self.fg_bg_sampler(labels)
+        positive = torch.where(torch.cat(positive))[0]
+        sampled = torch.cat([positive, torch.where(torch.cat(negative))[0]])
+        labels = torch.cat(labels)
+        _, size = world()
+        count = _global_sum(torch.tensor([sampled.numel()], dtype=torch.float64))[0].clamp(min=1)
+        scale = size / count.to(objectness.dtype)
+        box_sum = F.smooth_l1_loss(pred_bbox_deltas[positive], torch.cat(regression_targets)[positive], beta=1 / 9,
+                                   reduction="sum")
+        objectness_sum = F.binary_cross_entropy_with_logits(objectness.flatten()[sampled], labels[sampled],
+                                                            reduction="sum")
+        return objectness_sum * scale, box_sum * scale
 
 
 class TargetRoIHeads(RoIHeads):
@@ -164,6 +194,7 @@ class SolidWrapper(nn.Module):
             roi_heads.mask_predictor = MaskRCNNPredictor(heads.mask_predictor.conv5_mask.in_channels,
                                                          heads.mask_predictor.conv5_mask.out_channels, 1)
         target.roi_heads = roi_heads
+        target.rpn = UnionRPN.like(target.rpn)
         t = target.transform
         target.transform = _StoredSize(t.min_size, t.max_size, t.image_mean, t.image_std,
                                        size_divisible=t.size_divisible)

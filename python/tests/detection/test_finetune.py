@@ -20,7 +20,7 @@ try:
 except ImportError as error:
     raise unittest.SkipTest(f"PyTorch or torchvision is not importable: {error}")
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 # Tiny on purpose: the fixture's 96x72 images at their own size, few sampled RoIs.
 OVERRIDES = {"min_size": 72, "max_size": 96, "num_workers": 0, "rpn_batch_size_per_image": 64,
              "box_batch_size_per_image": 64}
