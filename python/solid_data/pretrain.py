@@ -1,7 +1,9 @@
 """Label-free pretraining on a solid dataset: ``python3 -m solid_data.pretrain``.
 
     /usr/bin/python3 -m solid_data.pretrain --dataset out/default/dataset --config small --out runs/small
-    torchrun --nproc_per_node 2 -m solid_data.pretrain --dataset D --config paper --out RUN
+    /usr/bin/python3 -m solid_data.launch --nproc_per_node 2 -m solid_data.pretrain --dataset D --config paper --out RUN
+
+(``solid_data.launch`` is torchrun, fixed for Debian 12; elsewhere ``torchrun`` itself works.)
 
 A run directory holds ``config.json`` (the resolved config), ``run.json`` (dataset, its
 manifest digest, package versions), ``log.jsonl`` (one line per iteration), ``checkpoint.pt``
@@ -138,9 +140,39 @@ def _write_json(path: Path, value: Any) -> None:
     os.replace(partial, path)
 
 
-def _init_distributed() -> None:
+def _init_distributed() -> torch.device:
+    """The rank's device, after joining torchrun's process group (NCCL across GPUs, gloo on
+    CPUs); one GPU per rank, picked by LOCAL_RANK."""
+    if torch.cuda.is_available():
+        device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", "0")))
+        torch.cuda.set_device(device)
+    else:
+        device = torch.device("cpu")
     if int(os.environ.get("WORLD_SIZE", "1")) > 1 and not dist.is_initialized():
-        dist.init_process_group("nccl" if torch.cuda.is_available() else "gloo")
+        dist.init_process_group("nccl" if device.type == "cuda" else "gloo")
+    return device
+
+
+def _to_device(batch: dict, device: torch.device) -> dict:
+    if device.type == "cpu":
+        return batch
+    moved = {k: v.to(device, non_blocking=True) if isinstance(v, torch.Tensor) else v for k, v in batch.items()}
+    moved["targets"] = [{k: v.to(device, non_blocking=True) if isinstance(v, torch.Tensor) else v
+                         for k, v in t.items()} for t in batch["targets"]]
+    return moved
+
+
+def _rng_state(device: torch.device) -> dict[str, torch.Tensor]:
+    state = {"cpu": torch.get_rng_state()}
+    if device.type == "cuda":
+        state["cuda"] = torch.cuda.get_rng_state(device)
+    return state
+
+
+def _set_rng_state(state: dict[str, torch.Tensor], device: torch.device) -> None:
+    torch.set_rng_state(state["cpu"])
+    if device.type == "cuda" and "cuda" in state:
+        torch.cuda.set_rng_state(state["cuda"], device)
 
 
 class _Stop:
@@ -170,20 +202,25 @@ def _format_seconds(seconds: float) -> str:
 
 
 def pretrain(options: PretrainOptions) -> PretrainReport:
-    _init_distributed()
+    device = _init_distributed()
     rank, size = world()
     run = Path(options.out)
     dataset = _open_dataset(options.dataset)
     config = _resolve_config(options, run)
     threads = config["threads"] or max(1, (os.cpu_count() or 1) // int(os.environ.get("LOCAL_WORLD_SIZE", "1")))
     torch.set_num_threads(threads)
-    torch.manual_seed(config["seed"] * 1000 + rank)
-
+    # One initialisation on every rank: DDP would broadcast rank 0's target detector, but the
+    # query encoder is copied from it before and must match on every rank too.
+    torch.manual_seed(config["seed"])
     wrapper = SolidWrapper(config, num_models=len(dataset.model_keys))
-    if size > 1 and config["sync_batchnorm"] and torch.cuda.is_available():
+    torch.manual_seed(config["seed"] * 1000 + rank)
+    if size > 1 and config["sync_batchnorm"] and device.type == "cuda":
         wrapper.target = torch.nn.SyncBatchNorm.convert_sync_batchnorm(wrapper.target)
+    wrapper.to(device)
     target = wrapper.target
-    ddp = torch.nn.parallel.DistributedDataParallel(target) if size > 1 else None
+    ddp = None
+    if size > 1:
+        ddp = torch.nn.parallel.DistributedDataParallel(target, device_ids=[device] if device.type == "cuda" else None)
     parameters = [p for p in target.parameters() if p.requires_grad]
     optimizer = torch.optim.SGD(parameters, lr=config["lr"], momentum=config["sgd_momentum"],
                                 weight_decay=config["weight_decay"])
@@ -191,14 +228,14 @@ def pretrain(options: PretrainOptions) -> PretrainReport:
     checkpoint_path = run / "checkpoint.pt"
     start = 0
     if checkpoint_path.exists():
-        state = torch.load(checkpoint_path, map_location="cpu")
+        state = torch.load(checkpoint_path, map_location=device)
         if state["world_size"] != size:
             raise PretrainError(f"{checkpoint_path}: written by {state['world_size']} ranks, resumed by {size}; "
                                 "resume with the same number of ranks")
         wrapper.load_state_dict(state["wrapper"])
         optimizer.load_state_dict(state["optimizer"])
         start = int(state["iteration"])
-        torch.set_rng_state(state["rng"][rank])
+        _set_rng_state({k: v.cpu() for k, v in state["rng"][rank].items()}, device)
     elif rank == 0:
         run.mkdir(parents=True, exist_ok=True)
     if rank == 0:
@@ -230,10 +267,16 @@ def pretrain(options: PretrainOptions) -> PretrainReport:
                                          num_workers=config["num_workers"], generator=torch.Generator())
 
     def save(iteration: int) -> None:
-        rngs = [torch.get_rng_state()]
+        own = _rng_state(device)
+        rngs = [own]
         if size > 1:
-            rngs = [torch.empty_like(rngs[0]) for _ in range(size)]
-            dist.all_gather(rngs, torch.get_rng_state())
+            # Collectives move device tensors (NCCL takes no CPU tensor): gathered there, stored on the CPU.
+            rngs = [{} for _ in range(size)]
+            for name, value in own.items():
+                parts = [torch.empty_like(value.to(device)) for _ in range(size)]
+                dist.all_gather(parts, value.to(device))
+                for gathered, part in zip(rngs, parts):
+                    gathered[name] = part.cpu()
         if rank == 0:
             _atomic_save({"wrapper": wrapper.state_dict(), "optimizer": optimizer.state_dict(),
                           "iteration": iteration, "rng": rngs, "world_size": size}, checkpoint_path)
@@ -254,6 +297,7 @@ def pretrain(options: PretrainOptions) -> PretrainReport:
                 lr = learning_rate(config, iteration)
                 for group in optimizer.param_groups:
                     group["lr"] = lr
+                batch = _to_device(batch, device)
                 losses = wrapper(batch, batch["query_model_ids"], ddp)
                 total = sum(losses.values())
                 optimizer.zero_grad(set_to_none=True)

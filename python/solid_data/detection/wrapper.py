@@ -94,7 +94,8 @@ class UnionRPN(RegionProposalNetwork):
         sampled = torch.cat([positive, torch.where(torch.cat(negative))[0]])
         labels = torch.cat(labels)
         _, size = world()
-        count = _global_sum(torch.tensor([sampled.numel()], dtype=torch.float64))[0].clamp(min=1)
+        count = _global_sum(torch.tensor([sampled.numel()], dtype=torch.float64, device=objectness.device))
+        count = count[0].clamp(min=1)
         scale = size / count.to(objectness.dtype)
         box_sum = F.smooth_l1_loss(pred_bbox_deltas[positive], torch.cat(regression_targets)[positive], beta=1 / 9,
                                    reduction="sum")
@@ -123,7 +124,8 @@ class TargetRoIHeads(RoIHeads):
         regression_all = torch.cat(regression_targets)
         foreground = torch.where(labels_all > 0)[0]
         _, size = world()
-        counts = _global_sum(torch.tensor([foreground.numel(), labels_all.numel()], dtype=torch.float64))
+        counts = _global_sum(torch.tensor([foreground.numel(), labels_all.numel()], dtype=torch.float64,
+                                          device=embeddings.device))
         keys = F.normalize(embeddings[foreground], dim=1)
         logits = keys @ self.bank.t() / self.temperature
         con_sum = F.cross_entropy(logits, labels_all[foreground] - 1, reduction="sum")
@@ -228,7 +230,7 @@ class SolidWrapper(nn.Module):
         x = self.target.transform.normalize(images.float() / 255.0) if images.numel() else images.float()
         side = (images.shape[-2], images.shape[-1])
         features = self.query.backbone(x)
-        boxes = [torch.tensor([[0.0, 0.0, float(w), float(h)]]) for h, w in sizes.tolist()]
+        boxes = [torch.tensor([[0.0, 0.0, float(w), float(h)]], device=images.device) for h, w in sizes.tolist()]
         pooled = self.target.roi_heads.box_roi_pool(features, boxes, [side] * len(boxes))
         return F.normalize(self.query.embed(self.query.box_head(pooled).flatten(start_dim=1)), dim=1)
 
@@ -271,13 +273,13 @@ def _gather_queries(embeddings: torch.Tensor, model_ids: torch.Tensor) -> tuple[
     _, size = world()
     if size == 1:
         return embeddings, model_ids
-    count = torch.tensor([model_ids.numel()])
+    count = torch.tensor([model_ids.numel()], device=model_ids.device)
     counts = [torch.zeros_like(count) for _ in range(size)]
     dist.all_gather(counts, count)
     most = int(max(c.item() for c in counts))
-    padded_ids = torch.full((most,), -1, dtype=torch.int64)
+    padded_ids = torch.full((most,), -1, dtype=torch.int64, device=model_ids.device)
     padded_ids[:model_ids.numel()] = model_ids
-    padded = torch.zeros((most, embeddings.shape[1]), dtype=embeddings.dtype)
+    padded = torch.zeros((most, embeddings.shape[1]), dtype=embeddings.dtype, device=embeddings.device)
     padded[:embeddings.shape[0]] = embeddings
     all_ids = [torch.empty_like(padded_ids) for _ in range(size)]
     all_embeddings = [torch.empty_like(padded) for _ in range(size)]
@@ -300,5 +302,5 @@ def export_state_dict(wrapper: SolidWrapper) -> dict[str, torch.Tensor]:
         if value.shape != fresh.shape:
             raise RuntimeError(f"pretrained {key} has shape {tuple(value.shape)}, the torchvision model "
                                f"{tuple(fresh.shape)}")
-        out[key] = value.detach().clone()
+        out[key] = value.detach().cpu().clone()
     return out
