@@ -191,6 +191,15 @@ class _Stop:
     def _handle(self, signum, frame):
         self.requested = True
 
+    def requested_anywhere(self, device: torch.device) -> bool:
+        """Whether any rank got the signal: every rank must stop after the same iteration, or
+        the checkpoint's collectives would wait forever for a rank that went on."""
+        if world()[1] == 1:
+            return self.requested
+        flag = torch.tensor([int(self.requested)], device=device)
+        dist.all_reduce(flag, op=dist.ReduceOp.MAX)
+        return bool(flag.item())
+
     def __exit__(self, *exc):
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
@@ -329,7 +338,7 @@ def pretrain(options: PretrainOptions) -> PretrainReport:
                           f"{rate:.2f} images/s  ETA {_format_seconds(eta)}", file=options.log, flush=True)
                 if iteration % config["checkpoint_period"] == 0 or iteration == stop:
                     save(iteration)
-                if stop_signal.requested:
+                if stop_signal.requested_anywhere(device):
                     interrupted = iteration < stop
                     if iteration % config["checkpoint_period"] != 0 and iteration != stop:
                         save(iteration)
