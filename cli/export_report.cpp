@@ -7,6 +7,7 @@
 #include "signals.h"
 #include "solid/export/coco.h"
 #include "solid/export/report.h"
+#include "solid/export/zarr.h"
 
 namespace solid::cli {
 namespace {
@@ -15,6 +16,37 @@ namespace {
 struct CocoFlags {
   std::string masks = "both", categories = "object", images = "copy";
 };
+
+Command AddZarr(CLI::App* cmd) {
+  auto* zarr = cmd->add_subcommand(
+      "zarr", "The reference SOLID renderer's zarr v2 store, for SOLID's own pretraining reader: OUT_DIR (new, or an "
+              "empty directory) with images, bboxes, masks, statistics and queries.");
+  auto o = std::make_shared<exporters::ZarrExportOptions>();
+  zarr->add_option("dataset", o->dataset, "Dataset directory")->required();
+  zarr->add_option("out_dir", o->out_dir, "The store to create: must not exist, or be an empty directory")->required();
+  zarr->add_option("--chunk", o->chunk, "Images per chunk (the queries' chunk is chunk x chunk)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, exporters::kMaxZarrChunk));
+  zarr->add_flag("--drop-viewless-models", o->drop_viewless_models,
+                 "Leave out the models without query views, and their instances, renumbering the classes "
+                 "(solid_export.json lists them); without it such a dataset is refused");
+  return [o]() -> int {
+    o->cancel = InstallStopHandlers();
+    Result<exporters::ZarrExportReport> result = [&] {
+      ProgressLine line("export", "images");
+      o->progress = line.Callback();
+      return exporters::ExportZarr(*o);
+    }();
+    if (result.status().code() == StatusCode::kCancelled) {
+      fmt::print(stderr, "solid: stopped by {}: {}\nsolid: to export, run the same command again:\n  {}\n",
+                 StopSignalName(), result.status().message(), CommandLine());
+      return StopExitCode();
+    }
+    if (!result.ok()) return Fail(result.status(), {{"chunk", "--chunk"}});
+    fmt::print("{}", result->ToText());
+    return kExitOk;
+  };
+}
 
 }  // namespace
 
@@ -39,7 +71,9 @@ Command AddExport(CLI::App& app) {
       ->check(CLI::IsMember({"copy", "link"}))
       ->capture_default_str();
   coco->add_option("--link-from", o->link_from, "An earlier COCO export of the same dataset, for --images link");
-  return [o, f]() -> int {
+  const Command zarr = AddZarr(cmd);
+  return [coco, o, f, zarr]() -> int {
+    if (!coco->parsed()) return zarr();
     o->masks = f->masks == "visible" ? exporters::CocoMasks::kVisible
                : f->masks == "full"  ? exporters::CocoMasks::kFull
                                      : exporters::CocoMasks::kBoth;

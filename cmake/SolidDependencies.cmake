@@ -18,6 +18,11 @@ endif()
 if(NOT TARGET PkgConfig::LIBDEFLATE)
   pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate>=1.14)
 endif()
+# solid::export writes the reference's zarr store with Blosc (export/zarr.cpp): Debian 12's
+# c-blosc ships no CMake config.
+if(NOT TARGET PkgConfig::BLOSC)
+  pkg_check_modules(BLOSC REQUIRED IMPORTED_TARGET blosc>=1.21)
+endif()
 find_package(Threads REQUIRED)
 find_package(draco 1.5 CONFIG REQUIRED)
 # solid::convert: meshoptimizer decodes EXT_meshopt_compression of glTF input.

@@ -125,7 +125,8 @@ void RemoveStaleTemps(const std::filesystem::path& final_path) {
     if (perr != std::errc() || end == pid_text.data() + pid_text.size() || *end != '-' || pid <= 0) continue;
     // A pid that still runs may be a concurrent writer of the same file: leave it.
     if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno == EPERM) continue;
-    std::filesystem::remove(entry.path(), ec);
+    // remove_all: an export's temporary is a whole directory (export/zarr.cpp).
+    std::filesystem::remove_all(entry.path(), ec);
   }
 }
 

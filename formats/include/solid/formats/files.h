@@ -17,7 +17,8 @@ namespace solid::files {
 std::filesystem::path TempPathFor(const std::filesystem::path& final_path);
 bool IsTempPath(const std::filesystem::path& path);
 
-// Removes "<final>.tmp-<this host>-<pid>-<n>" leftovers of writers that no longer run.
+// Removes "<final>.tmp-<this host>-<pid>-<n>" leftovers of writers that no longer run,
+// files or whole directories.
 void RemoveStaleTemps(const std::filesystem::path& final_path);
 
 Status SyncDirectory(const std::filesystem::path& dir);
