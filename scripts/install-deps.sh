@@ -11,6 +11,8 @@ packages=(
   libsqlite3-dev libxxhash-dev nlohmann-json3-dev libcli11-dev libfmt-dev
   libopenimageio-dev libdeflate-dev
   libembree-dev libdraco-dev libnlopt-dev
+  # the reference SOLID zarr store of `solid export zarr`: Blosc compresses its chunks
+  libblosc-dev
   # glTF input (`solid convert gltf`): tinygltf reads it, meshoptimizer decodes EXT_meshopt_compression
   libtinygltf-dev libmeshoptimizer-dev
   # tests and benchmarks
@@ -22,6 +24,8 @@ packages=(
   # pretraining and fine-tuning (python/solid_data/pretrain.py, finetune.py): torchvision's detectors,
   # OpenBLAS (15x the reference BLAS on a Faster R-CNN step), Cython to build pycocotools for COCOeval
   python3-torchvision libopenblas0-pthread cython3 python3-dev
+  # the zarr export read back by the ecosystem's own reader (python/tests/test_zarr.py)
+  python3-zarr python3-numcodecs
   # the farm tests (tests/farm): a single-node Slurm cluster they start and stop themselves
   slurm-wlm munge
 )
