@@ -33,7 +33,7 @@ using solid::testing::TempDir;
 
 constexpr int kExitIoError = 4;
 
-enum class Command { kConvert, kRender, kIndex, kOptimize, kExport };
+enum class Command { kConvert, kRender, kIndex, kOptimize, kExport, kExportZarr };
 
 std::string_view CommandName(Command c) {
   switch (c) {
@@ -42,6 +42,7 @@ std::string_view CommandName(Command c) {
     case Command::kIndex: return "Index";
     case Command::kOptimize: return "Optimize";
     case Command::kExport: return "Export";
+    case Command::kExportZarr: return "ExportZarr";
   }
   return "?";
 }
@@ -142,6 +143,7 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
       case Command::kIndex: return dir / "dataset";
       case Command::kOptimize: return dir / "fit";
       case Command::kExport: return dir / "coco";
+      case Command::kExportZarr: return dir / "zarr";
     }
     return dir;
   }
@@ -160,6 +162,13 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
       case Command::kRender: run = RunCommand(Shell(RenderArguments(out, {"--shard", "0"}))); break;
       case Command::kIndex: run = RunCommand(Shell(RenderArguments(out, {}))); break;
       case Command::kExport: run = RunCommand(Shell(RenderArguments(dir / "dataset", {}))); break;
+      case Command::kExportZarr: {
+        // The zarr store needs query views.
+        std::vector<std::string> a = RenderArguments(dir / "dataset", {"--query-size", "32"});
+        std::erase(a, "--no-queries");
+        run = RunCommand(Shell(a));
+        break;
+      }
       case Command::kOptimize: {
         fs::create_directories(out);
         const std::string earlier = "an earlier fit\n";
@@ -201,6 +210,7 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
         // From the directory: annotations.json names the dataset as given, the same in every run.
         return "cd " + ShellQuote(dir.string()) + " && " +
                Shell({SOLID_CLI_BINARY, "export", "coco", "dataset", out.string()});
+      case Command::kExportZarr: return Shell({SOLID_CLI_BINARY, "export", "zarr", (dir / "dataset").string(), out.string()});
     }
     return {};
   }
@@ -209,11 +219,14 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
   // below it (a vanished top directory would be recreated like any missing one).
   std::string Glob(const fs::path& dir) const {
     const fs::path out = Output(dir);
+    // The store is written in its temporary sibling, zarr.tmp-<host>-<pid>-<n>, then renamed.
+    if (command() == Command::kExportZarr) return out.string() + (fault().spec == "create=ENOENT" ? "*/masks/*" : "*");
     if (fault().spec != "create=ENOENT") return out.string() + "/*";
     switch (command()) {
       case Command::kConvert: return (out / "models").string() + "/*";
       case Command::kRender: return (out / "shards").string() + "/*";
       case Command::kExport: return (out / "images").string() + "/*";
+      case Command::kExportZarr:
       case Command::kIndex:
       case Command::kOptimize: return out.string() + "/*";
     }
@@ -268,6 +281,10 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
         EXPECT_EQ(Snapshot(have), Snapshot(want));
         EXPECT_TRUE(Snapshot(have).count("annotations.json"));
         break;
+      case Command::kExportZarr:
+        EXPECT_EQ(Snapshot(have), Snapshot(want));
+        EXPECT_TRUE(Snapshot(have).count(".zgroup"));
+        break;
     }
   }
 
@@ -320,6 +337,11 @@ class WriterFaults : public ::testing::TestWithParam<std::tuple<Command, Fault>>
           EXPECT_EQ(digest, done.at(name)) << name << " is incomplete";
         }
         break;
+      case Command::kExportZarr:
+        // All or nothing: no store, and no temporary beside it.
+        EXPECT_FALSE(fs::exists(Output(failed)));
+        for (const auto& entry : fs::directory_iterator(failed)) EXPECT_FALSE(files::IsTempPath(entry.path())) << entry.path();
+        break;
     }
   }
 };
@@ -358,7 +380,7 @@ std::string TestName(const ::testing::TestParamInfo<WriterFaults::ParamType>& in
 INSTANTIATE_TEST_SUITE_P(
     AllWriters, WriterFaults,
     ::testing::Combine(::testing::Values(Command::kConvert, Command::kRender, Command::kIndex, Command::kOptimize,
-                                         Command::kExport),
+                                         Command::kExport, Command::kExportZarr),
                        ::testing::ValuesIn(kFaults)),
     TestName);
 INSTANTIATE_TEST_SUITE_P(Rename, WriterFaults,
