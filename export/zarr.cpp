@@ -539,6 +539,7 @@ class Exporter {
         {"dropped_models", dropped},
     };
     SOLID_RETURN_IF_ERROR(store_.WriteFile("solid_export.json", Bytes(about.dump(2) + "\n")));
+    if (CancelRequested(o_.cancel)) return Stopped();
     SOLID_RETURN_IF_ERROR(store_.Publish());
     report_.classes = classes_;
     report_.query_shots = shots_;
@@ -628,6 +629,8 @@ class Exporter {
     raw.reserve(static_cast<size_t>(size));
     PutLe32(raw, static_cast<uint32_t>(chunk_));
     for (const Row& row : rows_) {
+      // A chunk of masks takes seconds: a stop is heeded inside it too.
+      if (CancelRequested(o_.cancel)) return Stopped();
       PutLe32(raw, static_cast<uint32_t>(row.instances.size() * row.width * row.height));
       for (const InstanceRecord& in : row.instances) {
         Result<rle::Rle> mask = rle::FromString(in.visible_rle, row.height, row.width);

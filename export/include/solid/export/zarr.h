@@ -68,8 +68,8 @@ struct ZarrExportOptions {
   // kBloscMaxBufferBytes.
   int64_t max_chunk_bytes = kBloscMaxBufferBytes;
   ProgressCallback progress;  // in images of the manifest
-  // Stops between images and between query models with kCancelled; the temporary store is
-  // removed.
+  // Stops between images, between query models and between the masks of a chunk, with
+  // kCancelled; the temporary store is removed.
   const CancelFlag* cancel = nullptr;
 };
 
