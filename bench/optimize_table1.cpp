@@ -3,10 +3,15 @@
 // prints evaluations and wall time of the fit (search and its confirmation), then the
 // metrics of the fitted params on --verify-layouts further fresh layouts at the output
 // resolution (the acceptance: at least 2,000 images at 640x480), untimed, against the
-// targets. Not run by ctest: a minute or so per row.
+// targets. Not run by ctest: a minute or so per row and seed.
 //
 //   optimize_table1 --assets DIR [--rooms DIR] [--rows a,b] [--max-seconds 60] [--jobs 2]
 //                   [--algorithm NAME] [--resolution WxH] [--start PRESET] [--verify-layouts 2000]
+//                   [--seeds 1-10]
+//
+// --seeds fits every row once per seed (a range A-B or a list A,B,...) and ends with one line
+// per row: how many seeds met on the fresh layouts, the median and worst fit time and
+// evaluation count. A fit is only as good as its worst common seed, not its luckiest.
 //
 // --start fits every row from one preset's structure (the issue's "from random-placement
 // to the more-objects row") instead of the row's own.
@@ -17,8 +22,11 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <map>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "solid/optimizer/optimize.h"
 
@@ -29,6 +37,32 @@ double CpuSeconds() {
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
          static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) * 1e-6;
+}
+
+// "1-10" or "1,4,7" to the seeds; empty on a malformed list.
+std::vector<uint64_t> ParseSeeds(const std::string& text) {
+  std::vector<uint64_t> seeds;
+  unsigned long long a = 0, b = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%llu-%llu%c", &a, &b, &tail) == 2 && a <= b) {
+    for (unsigned long long s = a; s <= b; ++s) seeds.push_back(s);
+    return seeds;
+  }
+  size_t at = 0;
+  while (at <= text.size()) {
+    const size_t comma = std::min(text.find(',', at), text.size());
+    const std::string item = text.substr(at, comma - at);
+    if (item.empty() || item.find_first_not_of("0123456789") != std::string::npos) return {};
+    seeds.push_back(std::stoull(item));
+    at = comma + 1;
+  }
+  return seeds;
+}
+
+template <typename T>
+T Median(std::vector<T> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
 }
 
 int main(int argc, char** argv) {
@@ -57,19 +91,38 @@ int main(int argc, char** argv) {
       ->delimiter('x');
   std::string start_preset;
   app.add_option("--start", start_preset, "Start every row from this preset (default: the row's own)");
+  std::string seeds_text;
+  app.add_option("--seeds", seeds_text, "Fit each row with each of these seeds: A-B or A,B,... (default: the "
+                                        "optimizer's seed)");
   CLI11_PARSE(app, argc, argv);
+  std::vector<uint64_t> seeds = {defaults.seed};
+  if (!seeds_text.empty()) {
+    seeds = ParseSeeds(seeds_text);
+    if (seeds.empty()) {
+      fmt::print(stderr, "--seeds {}: expected A-B or A,B,...\n", seeds_text);
+      return 2;
+    }
+  }
   std::tie(defaults.eval_width, defaults.eval_height) = eval_resolution;
   auto library = solid::render::AssetLibrary::Open(assets, rooms.empty() ? assets : rooms);
   if (!library.ok()) {
     fmt::print(stderr, "{}\n", library.status().ToString());
     return 1;
   }
-  fmt::print("| row | evals | fit s | fit CPU s | fit met | count | occlusion | small | medium | large | met on {} fresh |\n"
-             "|---|---|---|---|---|---|---|---|---|---|---|\n",
-             verify_layouts);
+  fmt::print(
+      "| row | seed | evals | fit s | fit CPU s | fit met | count | occlusion | small | medium | large | met on {} "
+      "fresh |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      verify_layouts);
+  struct Fits {
+    int met = 0;
+    std::vector<double> seconds;
+    std::vector<int64_t> evaluations;
+  };
+  std::map<std::string, Fits> summary;
   int missed = 0;
-  for (const std::string& row : rows) {
+  for (const std::string& row : rows) for (const uint64_t seed : seeds) {
     solid::optimizer::OptimizeOptions o = defaults;
+    o.seed = seed;
     auto start = solid::render::LoadPreset(start_preset.empty() ? row : start_preset);
     auto targets = solid::optimizer::TableRowTargets(row);
     if (!start.ok() || !targets.ok()) {
@@ -107,10 +160,24 @@ int main(int argc, char** argv) {
       cells += fmt::format(" {:.2f} / {:.2f}{} |", k * c.measured.mean, k * c.reference.mean, within ? "" : " (miss)");
     }
     const std::string from = start_preset.empty() ? "" : fmt::format(" (from {})", start_preset);
-    fmt::print("| {}{} | {} | {:.0f} | {:.0f} | {} |{} {} |\n", row, from, r->evaluations, r->seconds, fit_cpu,
-               r->all_met ? "yes" : "no", cells, met ? "yes" : "NO");
+    fmt::print("| {}{} | {} | {} | {:.0f} | {:.0f} | {} |{} {} |\n", row, from, seed, r->evaluations, r->seconds,
+               fit_cpu, r->all_met ? "yes" : "no", cells, met ? "yes" : "NO");
     std::fflush(stdout);
+    Fits& fits = summary[row + from];
+    fits.met += met ? 1 : 0;
+    fits.seconds.push_back(r->seconds);
+    fits.evaluations.push_back(r->evaluations);
     if (!met) ++missed;
+  }
+  if (seeds.size() > 1) {
+    fmt::print("\n| row | met (of {} seeds) | median fit s | worst fit s | median evals | most evals |\n"
+               "|---|---|---|---|---|---|\n",
+               seeds.size());
+    for (const auto& [row, fits] : summary) {
+      fmt::print("| {} | {} | {:.0f} | {:.0f} | {} | {} |\n", row, fits.met, Median(fits.seconds),
+                 *std::max_element(fits.seconds.begin(), fits.seconds.end()), Median(fits.evaluations),
+                 *std::max_element(fits.evaluations.begin(), fits.evaluations.end()));
+    }
   }
   return missed == 0 ? 0 : 2;
 }
