@@ -4,6 +4,7 @@
 #include <map>
 
 #include "commands.h"
+#include "solid/formats/version.h"
 #include "exit_codes.h"
 #include "signals.h"
 
@@ -13,7 +14,7 @@ int main(int argc, char** argv) {
   solid::cli::SetCommandLine(argc, argv);
   CLI::App app{"solid: label-free synthetic pretraining data for object detectors.\n"
                "Run 'solid COMMAND --help' for the flags of a command."};
-  app.set_version_flag("--version", SOLID_VERSION);
+  app.set_version_flag("--version", fmt::format("solid {} (commit {})", solid::Version(), solid::BuildCommit()));
   app.require_subcommand(1);
   std::map<CLI::App*, solid::cli::Command> commands;
   for (auto add : {solid::cli::AddConvert, solid::cli::AddSample, solid::cli::AddOptimize, solid::cli::AddRender,

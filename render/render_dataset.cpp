@@ -20,6 +20,7 @@
 
 #include "solid/formats/checksum.h"
 #include "solid/formats/file_lock.h"
+#include "solid/formats/version.h"
 #include "solid/formats/files.h"
 #include "solid/formats/image_codec.h"
 #include "solid/formats/index.h"
@@ -447,6 +448,7 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   const LayoutParams& p = sampler.params();
   Manifest m;
   m.generator_version = SOLID_VERSION;
+  m.git_sha = BuildCommit();
   m.seed = options.seed;
   m.images = options.images;
   m.shard_size = options.shard_size;
