@@ -10,9 +10,10 @@ import re
 import subprocess
 import sys
 
-FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
+# Whole words only: "--no-decodeX" must not count as "--no-decode".
+FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*(?![\w-])")
 # A table row whose first cell is a flag, e.g. "| `--seed N` | ...".
-TABLE_FLAG = re.compile(r"^\|\s*`?(--[a-z][a-z0-9-]*)")
+TABLE_FLAG = re.compile(r"^\|\s*`?(--[a-z][a-z0-9-]*)(?![\w-])")
 LINK = re.compile(r"\]\(([^)\s]+)\)")
 
 
