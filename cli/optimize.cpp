@@ -32,6 +32,8 @@ const FlagNames kOptimizeFlags = {{"preset", "--preset"},           {"out", "--o
                                   {"target_scale", "--target-scale"}, {"targets", "--target-row"},
                                   {"algorithm", "--algorithm"},     {"global_algorithm", "--global"},
                                   {"layouts", "--layouts"},         {"confirm_layouts", "--confirm-layouts"},
+                                  {"confirm_output_layouts", "--confirm-output-layouts"},
+                                  {"confirm_standard_error", "--confirm-error"},
                                   {"max_rounds", "--rounds"},       {"space", "--space"},
                                   {"free", "--free"},               {"fix", "--fix"}};
 
@@ -45,40 +47,71 @@ std::string ProgressMetrics(const ProxyMetrics& m) {
                      100 * m.occlusion.mean, 100 * m.small.mean, 100 * m.medium.mean, 100 * m.large.mean);
 }
 
+// How sure a confirmed target is: its residual in tolerances and how many standard errors
+// the estimate lies inside (or outside) the tolerance.
+std::string HowSure(const optimizer::TargetResult& t) {
+  const double residual = (t.predicted.mean - t.target.value) / t.target.tolerance;
+  const double standard_error = t.predicted.ci95 / 1.959963984540054 / t.target.tolerance;
+  if (!(standard_error > 0)) return fmt::format("residual {:+.2f} tol", residual);
+  return fmt::format("residual {:+.2f} +- {:.2f} tol, {:.1f} SE {} the tolerance", residual, standard_error,
+                     std::abs(1 - std::abs(residual)) / standard_error, std::abs(residual) <= 1 ? "inside" : "outside");
+}
+
+// What to try when a target was missed, from why the fit ended.
+void PrintAdvice(const optimizer::OptimizeReport& r) {
+  fmt::print("to try:\n");
+  bool blocked = false;
+  for (const optimizer::TargetResult& t : r.results) blocked = blocked || !t.blocked_by.empty();
+  if (blocked) {
+    fmt::print("  free or widen the knob at its bound (--free, or a --space file with wider bounds), or start from a "
+               "preset whose structure is nearer the targets (--preset)\n");
+  }
+  if (r.ending == "time" || r.ending == "evaluations" || r.ending == "rounds") {
+    fmt::print("  a larger budget: --max-seconds {:g} (or --max-evals, --rounds)\n", 2 * r.seconds);
+  }
+  if (r.ending != "blocked") {
+    fmt::print("  more common layouts per evaluation (--layouts; noisy rows, such as 13.7 objects per image, need "
+               "200), or a nearer preset (--preset)\n");
+  }
+}
+
 void PrintReport(const optimizer::OptimizeReport& r, const std::string& out) {
   fmt::print("{} after {} evaluations, {} round(s), {:.1f} s: {}\n",
              r.cancelled ? "STOPPED" : r.all_met ? "MET" : "NOT MET", r.evaluations, r.rounds, r.seconds,
              r.stop_reason);
+  for (const std::string& line : r.history) fmt::print("  {}\n", line);
   fmt::print("scale classes counted at {}\n", render::ScaleClassDescription(r.best));
   if (r.cancelled) {
     fmt::print("evaluation resolution {}x{}; achieved = the search's common layouts (95% CI), unconfirmed\n",
                r.eval_width, r.eval_height);
   } else {
-    fmt::print("evaluations at {}x{}; achieved = {} fresh layouts at the output resolution {}x{} (95% CI)\n",
-               r.eval_width, r.eval_height, r.confirmation.images, r.best.width, r.best.height);
+    const optimizer::ConfirmationRow& c = r.confirmations.back();
+    fmt::print("evaluations at {}x{}; achieved = the confirmation at the output resolution {}x{} (95% CI): {} fresh "
+               "layouts{}\n",
+               r.eval_width, r.eval_height, r.best.width, r.best.height, r.confirmation.images,
+               c.output_layouts > 0 ? fmt::format(", {} of them also at {}x{}", c.output_layouts, r.best.width, r.best.height)
+                                    : std::string());
   }
-  fmt::print("  {:<18} {:>9} {:>8} {:>18} {}\n", "metric", "target", "tol", "achieved", r.pilot ? "  pilot (output res)" : "");
+  fmt::print("  {:<18} {:>9} {:>8} {:>18}   {}\n", "metric", "target", "tol", "achieved", r.pilot ? "pilot (output res)" : "");
   for (const optimizer::TargetResult& t : r.results) {
     const Metric m = t.target.metric;
     std::string pilot;
     if (t.pilot) {
-      pilot = fmt::format("  {} +- {} {}", Percent(m, t.pilot->mean), Percent(m, t.pilot->ci95),
+      pilot = fmt::format("  pilot {} +- {} {}", Percent(m, t.pilot->mean), Percent(m, t.pilot->ci95),
                           t.pilot_agrees ? "agrees" : "DISAGREES");
     }
-    fmt::print("  {:<18} {:>9} {:>8} {:>18} {}{}\n", optimizer::MetricName(m), Percent(m, t.target.value),
+    fmt::print("  {:<18} {:>9} {:>8} {:>18}   {:<6} {}{}\n", optimizer::MetricName(m), Percent(m, t.target.value),
                Percent(m, t.target.tolerance),
                fmt::format("{} +- {}", Percent(m, t.predicted.mean), Percent(m, t.predicted.ci95)),
-               t.met ? "ok" : "MISSED", pilot);
+               t.met ? "ok" : "MISSED", r.cancelled ? "" : HowSure(t), pilot);
     if (t.search_offset != 0) {
-      fmt::print("      searched for {} on the common layouts: at the last round's start, fresh ones measured {} {}\n",
+      fmt::print("      searched for {} at the evaluation resolution: the output's measures {} {}\n",
                  Percent(m, t.target.value - t.search_offset), Percent(m, std::abs(t.search_offset)),
                  t.search_offset > 0 ? "more" : "less");
     }
     for (const std::string& b : t.blocked_by) fmt::print("      blocked by {}\n", b);
-    if (!t.met && t.blocked_by.empty()) {
-      fmt::print("      no free dimension at a bound holds it back: the search stopped ({}) first\n", r.stop_reason);
-    }
   }
+  if (!r.all_met && !r.cancelled) PrintAdvice(r);
   fmt::print("point:\n");
   for (size_t i = 0; i < r.dimensions.size(); ++i) {
     fmt::print("  {:<34} {:>9.4g}   [{:g}, {:g}]\n", r.dimensions[i].name, r.best_x[i], r.dimensions[i].lo,
@@ -115,8 +148,9 @@ int RunOptimize(OptimizeFlags& f) {
                t.objective, ProgressMetrics(t.metrics), t.seconds);
   };
   o.search.on_confirmation = [](const optimizer::ConfirmationRow& c) {
-    fmt::print(stderr, "confirm r{} {:<7} {:<6} on {} fresh layouts  {}  {:6.1f} s\n", c.round, c.phase,
-               c.met ? "met" : "missed", c.metrics.images, ProgressMetrics(c.metrics), c.seconds);
+    fmt::print(stderr, "confirm r{} {:<14} on {} fresh layouts ({} at the output resolution)  {}  {:6.1f} s\n",
+               c.round, c.met ? "met" : c.clear_miss ? "missed clearly" : "missed", c.metrics.images,
+               c.output_layouts, ProgressMetrics(c.metrics), c.seconds);
   };
   o.search.cancel = InstallStopHandlers();
   Result<optimizer::FitReport> fitted = optimizer::Fit(o);
@@ -218,19 +252,23 @@ Command AddOptimize(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--global", o.global_algorithm, "Global NLopt algorithm run first: crs2, isres, esch, direct");
   cmd->add_option("--global-evals", o.global_evaluations, "Evaluations of the global phase (default: a third of --max-evals)");
-  cmd->add_option("--layouts,-n", o.layouts, "Layouts per evaluation (common seeds; doubled each round)")
+  cmd->add_option("--layouts,-n", o.layouts, "Layouts per evaluation (Gauss-Newton: each on layouts of its own; NLopt: common seeds, doubled each round)")
       ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{1000000}));
   cmd->add_option("--eval-resolution", f->eval_resolution, "Mask resolution of evaluations (default: a quarter of the output's width and height)");
-  cmd->add_option("--confirm-layouts", o.confirm_layouts, "Fresh layouts at the output resolution that re-measure the best point (the acceptance of solid-method.md 4.3 is over 2,000: raise it for a final check)")
-      ->capture_default_str()->check(CLI::Range(int64_t{1}, int64_t{10000000}));
+  cmd->add_option("--confirm-layouts", o.confirm_layouts, "Fresh layouts of each confirmation, at the evaluation resolution (0: as many as --confirm-error needs)")
+      ->capture_default_str()->check(CLI::Range(int64_t{0}, int64_t{10000000}));
+  cmd->add_option("--confirm-output-layouts", o.confirm_output_layouts, "Of them, also measured at the output resolution, which corrects the rest (0: as many as --confirm-error needs)")
+      ->capture_default_str()->check(CLI::Range(int64_t{0}, int64_t{10000000}));
+  cmd->add_option("--confirm-error", o.confirm_standard_error, "Standard error, in tolerances, that sized confirmations aim at")
+      ->capture_default_str()->check(CLI::Range(0.01, 10.0));
   cmd->add_option("--pilot", o.pilot_layouts, "Fresh layouts at the output resolution checked against the prediction")
       ->capture_default_str();
   cmd->add_option("--max-evals", o.max_evaluations, "Evaluation budget")->capture_default_str();
-  cmd->add_option("--max-seconds", o.max_seconds, "Time budget of the search and its confirmation (the pilot comes on top)")->capture_default_str();
-  cmd->add_option("--margin", o.search_margin, "Stop the search within this share of each tolerance on the common layouts; a confirmation outside it gets correction steps on fresh layouts when within 3 tolerances of every target and either meeting them all or with no room for another round, else another round, while the budget has room")
+  cmd->add_option("--max-seconds", o.max_seconds, "Time budget of the searches and their confirmations (the pilot comes on top)")->capture_default_str();
+  cmd->add_option("--margin", o.search_margin, "Share of each tolerance within which a round's search stops and a confirmation that meets every target ends the fit; otherwise another round searches on from the confirmed point, while the budget has room")
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
-  cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (a missed confirmation, or one outside --margin with time left, starts another)")
-      ->capture_default_str()->check(CLI::Range(1, 10));
+  cmd->add_option("--rounds", o.max_rounds, "Search rounds at most (each ends with a confirmation; one outside --margin with budget left starts another)")
+      ->capture_default_str()->check(CLI::Range(1, 100));
   AddSeedOption(cmd, &o.seed, "Layout seed");
   AddJobsOption(cmd, &o.jobs, "Layouts in parallel (default: all cores)");
   cmd->add_flag("--json", f->json, "Print the summary as JSON");

@@ -43,6 +43,30 @@ Estimate MetricsAccumulator::Moments::Get() const {
   return {mean, 1.959963984540054 * std::sqrt(variance / static_cast<double>(n))};
 }
 
+namespace {
+
+double OcclusionOf(uint64_t visible_area, uint64_t full_area) {
+  return static_cast<double>(full_area - std::min(full_area, visible_area)) / static_cast<double>(full_area);
+}
+
+}  // namespace
+
+ImageTotals TotalsOfImage(int64_t index, std::span<const InstanceRecord> instances, double area_scale) {
+  ImageTotals t;
+  t.index = index;
+  for (const InstanceRecord& in : instances) {
+    if (in.visible_area == 0) continue;
+    ++t.visible;
+    if (in.full_area > 0) t.occlusion += OcclusionOf(in.visible_area, in.full_area);
+    switch (ScaleClassOfArea(in.visible_area, area_scale)) {
+      case ScaleClass::kSmall: ++t.small; break;
+      case ScaleClass::kMedium: ++t.medium; break;
+      case ScaleClass::kLarge: ++t.large; break;
+    }
+  }
+  return t;
+}
+
 void MetricsAccumulator::AddImage(std::span<const InstanceRecord> instances) {
   int64_t visible = 0;
   for (const InstanceRecord& in : instances) {
@@ -62,8 +86,7 @@ void MetricsAccumulator::AddImageCounts(int64_t instances, int64_t visible_insta
 void MetricsAccumulator::AddVisibleInstance(uint64_t visible_area, uint64_t full_area) {
   ++visible_;
   if (full_area > 0) {
-    occlusion_.Add(static_cast<double>(full_area - std::min(full_area, visible_area)) /
-                   static_cast<double>(full_area));
+    occlusion_.Add(OcclusionOf(visible_area, full_area));
   }
   switch (ScaleClassOfArea(visible_area, area_scale_)) {
     case ScaleClass::kSmall: ++small_; break;

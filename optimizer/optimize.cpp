@@ -17,6 +17,8 @@
 #include "solid/formats/json_schema.h"
 #include "solid/formats/schemas.h"
 #include "solid/render/sample.h"
+#include "estimator.h"
+#include "local_model.h"
 
 namespace solid::optimizer {
 namespace {
@@ -62,6 +64,51 @@ const Table1& Table1Data() {
   return table;
 }
 
+constexpr double kZ95 = 1.959963984540054;
+
+// A sized confirmation measures at least this many layouts, and pairs at least this many at
+// the output resolution: the variances that size the next one come from them.
+constexpr int64_t kMinConfirmLayouts = 200;
+constexpr int64_t kMinConfirmPairs = 100;
+// A confirmation runs in parts, and stops after one that shows a clear miss.
+constexpr int kConfirmationParts = 8;
+// Each round doubles the common layouts of the last, up to 8 times the first round's.
+constexpr int kMaxLayoutDoublings = 3;
+
+// What one layout costs at a mask resolution, relative to drawing it: the layout itself,
+// then the metrics-only mask pass in proportion to its pixels. Measured on the fitted
+// more-objects point (procedural default, 600 layouts): 7.3 ms to draw, 1.5 ms of mask pass at
+// 160x120, 21.8 at 640x480; the other rows draw faster, and their ratio of the two resolutions'
+// costs is 2.8-4 against this model's 3.5.
+double LayoutCost(int width, int height) {
+  constexpr double kPerPixel = 0.2 / (160 * 120);
+  return 1 + kPerPixel * width * height;
+}
+
+constexpr std::string_view kStationary = "no step within the bounds improves the linear model";
+
+// The local search of "gauss-newton" is ours (Search::GaussNewton); its bounded
+// subproblems are NLopt's SLSQP.
+constexpr std::string_view kGaussNewton = "gauss-newton";
+
+// The words of OptimizeReport::stop_reason for its `ending`.
+std::string StopReason(std::string_view ending, const OptimizeOptions& o) {
+  if (ending == "met") {
+    return o.algorithm == kGaussNewton
+               ? fmt::format("met: a confirmation meets every target, and the local model with it puts the point "
+                             "within {:g} of every tolerance",
+                             o.search_margin)
+               : fmt::format("met: a confirmation within {:g} of every tolerance", o.search_margin);
+  }
+  if (ending == "time") return fmt::format("the time budget ({:g} s) is spent", o.max_seconds);
+  if (ending == "evaluations") return fmt::format("the evaluation budget ({}) is spent", o.max_evaluations);
+  if (ending == "rounds") return fmt::format("the rounds budget ({}) is spent", o.max_rounds);
+  if (ending == "blocked") {
+    return std::string("blocked: the linear model gets no closer within the bounds, with a free dimension at one");
+  }
+  return std::string(ending);
+}
+
 // A point moved this far (in the unit cube) inside from a bound tells whether the bound is
 // what stops a target.
 constexpr double kProbeStep = 0.1;
@@ -70,16 +117,13 @@ constexpr double kAtBound = 1e-3;
 // Part of a fit's fingerprint: a recorded fit is reused only when the search that made it
 // would make it again. Raise it with any change that moves where a search ends for the same
 // options (the project version alone let a rerun reuse fits of an older search).
-constexpr int kSearchRevision = 3;
+constexpr int kSearchRevision = 4;
 
 struct NloptDeleter {
   void operator()(nlopt_opt o) const { nlopt_destroy(o); }
 };
 using Nlopt = std::unique_ptr<std::remove_pointer_t<nlopt_opt>, NloptDeleter>;
 
-// The local search of "gauss-newton" is ours (Search::GaussNewton); its bounded
-// subproblems are NLopt's SLSQP.
-constexpr std::string_view kGaussNewton = "gauss-newton";
 
 Result<nlopt_algorithm> AlgorithmByName(std::string_view name, bool global) {
   if (!global && name == kGaussNewton) return NLOPT_LD_SLSQP;
@@ -223,30 +267,51 @@ struct Search {
   OptimizeReport report;
   Status error;
   int round = 0;
-  Clock::time_point round_start;
   int round_first_evaluation = 0;
   int64_t layouts = 0;
   std::string phase;
   nlopt_opt running = nullptr;
-  bool met = false;  // the best point is within search_margin on the common seeds
-  // What the search aims at on the common seeds: the targets, shifted from the second
+  // The search may stop for a confirmation: NLopt's best point within the margin on the
+  // common layouts, or Gauss-Newton's local model within it at its centre.
+  bool met = false;
+  // What NLopt's methods aim at on the common layouts: the targets, shifted from the second
   // round on (see Run's `confirmed`).
   std::vector<Target> search_targets;
   double best_objective = std::numeric_limits<double>::infinity();
   std::vector<double> best_unit;
-  // This round's measurements by point. The common seeds make a point's metrics a function
-  // of the point, so measuring it again would learn nothing: Gauss-Newton steps back to
-  // where it was, or differences again at a point after rejected steps.
+  // This round's measurements on the common layouts by point: a point's metrics there are
+  // a function of the point, so measuring it again would learn nothing.
   std::map<std::vector<double>, ProxyMetrics> measured;
+  // Wall seconds and layouts measured at the evaluation and at the output resolution: what a
+  // layout costs at each, for the budget.
   double evaluation_seconds = 0, output_seconds = 0;
-  int64_t evaluated_layouts = 0, output_layouts = 0;  // at the evaluation and at the output resolution
-  // Gauss-Newton's Jacobian where the previous round left it. The next round's common seeds
-  // move the residuals by about a constant, not their slopes, so it starts from this one
-  // instead of spending an evaluation per dimension.
-  std::vector<double> previous_jacobian;
-  int confirmations = 0;  // each on a fresh range of its own
-  int corrections = 0;
-  bool correction_discarded = false;  // the last step's confirmation was farther from the targets
+  int64_t evaluated_layouts = 0, output_layouts = 0;
+  // Confirmations pair layouts at the two resolutions (estimator.h) unless they are one.
+  bool two_phase = false;
+  // Per target, the per-layout variances that size the next confirmation: at first the
+  // best point's with the pairs of round one's start at both resolutions, then the latest
+  // confirmation's.
+  std::vector<TwoPhaseEstimate> noise;
+  std::vector<ImageTotals> best_totals;  // the best point's evaluation
+  // Round one's start on its common layouts at the evaluation and at the output resolution.
+  std::vector<ImageTotals> start_totals, start_output_totals;
+  bool noise_from_confirmation = false;
+  std::string round_note;  // how the round's search ended
+  // Gauss-Newton's measurements (local_model.h), residuals against the targets: evaluations
+  // at the evaluation resolution, which `offset` carries to the output's when a model is
+  // fitted, and measurements at the output resolution (round one's start, confirmations).
+  std::vector<Observation> observations;
+  std::vector<bool> at_evaluation_resolution;  // per observation
+  // Per target, what the output resolution measures more than the evaluation resolution on
+  // the same layouts (metric units), pooled over every pair so far, and their number.
+  std::vector<double> offset;
+  double offset_pairs = 0;
+  std::vector<double> jacobian;        // the latest local model's, targets x dimensions
+  std::vector<double> design_centre;   // where the latest design of differences was centred
+  double trust_radius = 0.3;           // unit cube, carried from round to round
+  int fresh_evaluations = 0;           // Gauss-Newton's, each on layouts of its own
+  int confirmations = 0;               // each on layouts of its own
+  bool stationary = false;  // the round's Gauss-Newton found no step within the bounds that helps
 
   std::vector<double> ToUnits(const double* unit) const {
     std::vector<double> v(dims.size());
@@ -258,59 +323,197 @@ struct Search {
     for (size_t i = 0; i < dims.size(); ++i) u[i] = (v[i] - dims[i].lo) / (dims[i].hi - dims[i].lo);
     return u;
   }
-  // What the search may still start: the budget less the time that one more evaluation
-  // and confirming the best point on the fresh layouts will take at the rates measured so
-  // far, so that max_seconds bounds the search and its confirmation together. Layouts at
-  // the output resolution have their own rate (the first round's "output" evaluation, then
-  // the confirmations); with evaluations at the output resolution, it is theirs.
-  double SecondsLeft() const {
-    const double per_layout = evaluated_layouts > 0 ? evaluation_seconds / static_cast<double>(evaluated_layouts) : 0;
-    const double per_confirmed =
-        output_layouts > 0 ? output_seconds / static_cast<double>(output_layouts) : per_layout;
-    return options.max_seconds - SecondsSince(start) - per_layout * static_cast<double>(layouts) -
-           per_confirmed * static_cast<double>(options.confirm_layouts);
+  Result<LayoutParams> Decode(const std::vector<double>& unit) const {
+    Result<LayoutParams> decoded = options.space.Decode(options.start, ToUnits(unit.data()));
+    if (!decoded.ok()) return decoded.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
+    return decoded;
   }
-  // What the last round took, search and confirmation: the next one takes about as long
-  // (twice the layouts, but a Jacobian already at hand).
-  double RoundSeconds() const { return SecondsSince(round_start); }
-  bool RoomForAnotherRound() const {
-    return round + 1 < options.max_rounds && SecondsLeft() >= RoundSeconds() &&
-           options.max_evaluations - report.evaluations >= report.evaluations - round_first_evaluation;
+  double LowCost() const {
+    return evaluated_layouts > 0 ? evaluation_seconds / static_cast<double>(evaluated_layouts) : 0;
+  }
+  double HighCost() const { return output_layouts > 0 ? output_seconds / static_cast<double>(output_layouts) : LowCost(); }
+  // The next confirmation's sizes (OptimizeOptions::confirm_layouts), before the time it may
+  // take. Sized by the layouts' modelled costs, not their measured seconds, so that a fit
+  // the budget does not cut short is the same on any machine.
+  ConfirmationSize PlannedConfirmation() const {
+    ConfirmationSize size;
+    if (!noise.empty()) {
+      size = SizeConfirmation(noise, options.targets, LayoutCost(report.eval_width, report.eval_height),
+                              two_phase ? LayoutCost(options.start.width, options.start.height) : 0,
+                              options.confirm_standard_error);
+    }
+    size.low = std::max(size.low, kMinConfirmLayouts);
+    size.high = two_phase ? std::max(size.high, kMinConfirmPairs) : 0;
+    if (options.confirm_layouts > 0) size.low = options.confirm_layouts;
+    if (two_phase && options.confirm_output_layouts > 0) size.high = options.confirm_output_layouts;
+    size.high = std::min(size.high, size.low);
+    return size;
+  }
+  double ConfirmationSeconds(const ConfirmationSize& size) const {
+    return LowCost() * static_cast<double>(size.low) + HighCost() * static_cast<double>(size.high);
+  }
+  // What the search may still start: the budget less the time that one more evaluation
+  // and the next confirmation will take at the rates measured so far, so that max_seconds
+  // bounds the searches and their confirmations together.
+  double SecondsLeft() const {
+    return options.max_seconds - SecondsSince(start) - LowCost() * static_cast<double>(layouts) -
+           ConfirmationSeconds(PlannedConfirmation());
   }
   bool OutOfBudget() const { return report.evaluations >= options.max_evaluations || SecondsLeft() <= 0; }
-  // Why the search stopped: the targets, a budget, or else `otherwise` (the method's own reason).
-  std::string StopReason(std::string otherwise) const {
-    if (met) return "every target within the search margin on the common seeds";
-    if (report.evaluations >= options.max_evaluations) return "max evaluations";
-    if (SecondsLeft() <= 0) return "time budget";
+  // The budget that is spent: "evaluations", else "time".
+  std::string_view SpentBudget() const {
+    return report.evaluations >= options.max_evaluations ? "evaluations" : "time";
+  }
+  // How the round's search ended: the targets, a budget, or else `otherwise` (the method's own reason).
+  std::string SearchEnd(std::string otherwise) const {
+    if (met) return otherwise.empty() ? "every target within the search margin" : otherwise;
+    if (report.evaluations >= options.max_evaluations) return "evaluation budget";
+    if (SecondsLeft() <= 0) return "time budget, less the confirmation's share";
     return otherwise;
   }
-
-  EvaluationOptions Eval(int64_t first, int64_t n) const {
-    return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs, options.cancel};
+  // A target missed by more than three standard errors beyond its tolerance.
+  bool ClearMiss(const ProxyMetrics& m) const {
+    for (const Target& t : options.targets) {
+      const Estimate e = MetricOf(m, t.metric);
+      if (std::abs(e.mean - t.value) > t.tolerance + 3 * e.ci95 / kZ95) return true;
+    }
+    return false;
   }
-  // Fresh layouts at the output resolution: what the confirmation measures, so that what it
-  // reports is what a render of these params will show.
-  // Each confirmation has its own: a round, or a correction step, aims at what the previous
-  // confirmation measured, so measuring its point on the same layouts would reward a point
-  // that suits their sampling error.
-  // `unit` is where params lie in the unit cube; `kind` is "round" or "correct".
-  Result<Evaluation> Confirm(const LayoutParams& params, const std::vector<double>& unit, std::string_view kind) {
-    const EvaluationOptions fresh{options.seed, kConfirmFirst + confirmations * kConfirmRoundStride,
-                                  options.confirm_layouts, 0, 0, options.jobs, options.cancel};
-    SOLID_ASSIGN_OR_RETURN(Evaluation e, Evaluate(params, library, fresh));
+  void AddCost(const Evaluation& e, int64_t n, bool at_output) {
+    (at_output ? output_seconds : evaluation_seconds) += e.seconds;
+    (at_output ? output_layouts : evaluated_layouts) += n;
+  }
+  void Trace(const std::vector<double>& unit, const ProxyMetrics& metrics, double objective) {
+    TraceRow row{++report.evaluations, round, phase, ToUnits(unit.data()), metrics, objective, SecondsSince(start),
+                 layouts};
+    if (options.on_evaluation) options.on_evaluation(row);
+    report.trace.push_back(std::move(row));
+  }
+  void Observe(const std::vector<double>& unit, const ProxyMetrics& metrics, std::vector<double> variances,
+               bool at_evaluation) {
+    observations.push_back({unit, Residuals(metrics, options.targets), std::move(variances), 0});
+    at_evaluation_resolution.push_back(at_evaluation);
+  }
+  // What the output resolution measures more than the evaluation resolution on `low` and
+  // `high` (matched by index), pooled into `offset`.
+  void PoolOffset(const std::vector<ImageTotals>& low, const std::vector<ImageTotals>& high) {
+    const double pairs = static_cast<double>(high.size());
+    if (pairs < 2) return;
+    for (size_t i = 0; i < options.targets.size(); ++i) {
+      const Metric metric = options.targets[i].metric;
+      const double difference = EstimateMetric(low, high, metric).mean - EstimateMetric(low, {}, metric).mean;
+      offset[i] = (offset[i] * offset_pairs + difference * pairs) / (offset_pairs + pairs);
+    }
+    offset_pairs += pairs;
+  }
+
+  // The point on fresh layouts, measured in parts, each pairing its first layouts at the
+  // output resolution; what it reports is what a render of these params will show. After
+  // each part the noise model is measured again on the layouts so far and the sizes
+  // re-planned (the first plan rests on a hundred layouts); it stops once every target's
+  // standard error is within confirm_standard_error, on a clear miss (a target missed by
+  // more than three standard errors beyond its tolerance, which the rest could not turn), or
+  // when the time is spent. `unit` is where params lie in the unit cube.
+  Result<Evaluation> Confirm(const LayoutParams& params, const std::vector<double>& unit) {
+    if (!noise_from_confirmation) {
+      // Before the first confirmation: the best point's layouts, and the start's pairs.
+      for (size_t i = 0; i < options.targets.size(); ++i) {
+        const Metric metric = options.targets[i].metric;
+        noise[i] = EstimateMetric(best_totals, {}, metric);
+        noise[i].difference_variance = EstimateMetric(start_totals, start_output_totals, metric).difference_variance;
+      }
+    }
+    const int64_t first = kConfirmFirst + confirmations * kConfirmRoundStride;
     ++confirmations;
-    output_seconds += e.seconds;
-    output_layouts += options.confirm_layouts;
-    ConfirmationRow row{round, std::string(kind), ToUnits(unit.data()), e.metrics,
-                        Within(e.metrics, options.targets, 1.0), SecondsSince(start)};
+    std::vector<ImageTotals> low, high;
+    ProxyMetrics so_far;
+    bool clear_miss = false;
+    const bool fixed = options.confirm_layouts > 0;
+    ConfirmationSize size = PlannedConfirmation();
+    const int64_t part = std::max<int64_t>(1, (size.low + kConfirmationParts - 1) / kConfirmationParts);
+    for (;;) {
+      const auto done = static_cast<int64_t>(low.size()), paired = static_cast<int64_t>(high.size());
+      if (done >= size.low) break;
+      // The next part, and the pairs that keep them in proportion to the plan.
+      const int64_t count = std::min(part, size.low - done);
+      const int64_t pairs = std::clamp(size.high * (done + count) / size.low - paired, int64_t{0}, count);
+      EvaluationOptions at_eval{options.seed, first + done, count, 0, 0, options.jobs, options.cancel};
+      if (two_phase) std::tie(at_eval.width, at_eval.height) = std::pair(report.eval_width, report.eval_height);
+      SOLID_ASSIGN_OR_RETURN(Evaluation e, Evaluate(params, library, at_eval));
+      AddCost(e, count, false);
+      low.insert(low.end(), e.totals.begin(), e.totals.end());
+      if (pairs > 0) {
+        const EvaluationOptions at_output{options.seed, first + done, pairs, 0, 0, options.jobs, options.cancel};
+        SOLID_ASSIGN_OR_RETURN(Evaluation h, Evaluate(params, library, at_output));
+        AddCost(h, pairs, true);
+        high.insert(high.end(), h.totals.begin(), h.totals.end());
+      }
+      so_far = EstimateMetrics(low, high);
+      if (static_cast<int64_t>(low.size()) >= size.low) break;
+      if (ClearMiss(so_far)) {
+        clear_miss = true;
+        break;
+      }
+      if (fixed) continue;
+      UpdateNoise(low, high);
+      if (LargestStandardError(so_far, options.targets) <= options.confirm_standard_error &&
+          static_cast<int64_t>(low.size()) >= kMinConfirmLayouts) {
+        break;
+      }
+      size = PlannedConfirmation();
+      // No more than the time left allows, at the rates measured so far.
+      const double per_layout = ConfirmationSeconds({1, 0}) + ConfirmationSeconds({0, 1}) *
+                                                                  static_cast<double>(size.high) /
+                                                                  static_cast<double>(std::max<int64_t>(1, size.low));
+      const double left = options.max_seconds - SecondsSince(start);
+      const auto affordable = static_cast<int64_t>(std::max(0.0, left) / std::max(1e-9, per_layout));
+      size.low = std::max(static_cast<int64_t>(low.size()), std::min(size.low, static_cast<int64_t>(low.size()) + affordable));
+      size.high = std::min(size.high, size.low);
+    }
+    UpdateNoise(low, high);
+    noise_from_confirmation = true;
+    PoolOffset(low, high);
+    Evaluation e;
+    e.metrics = so_far;
+    Observe(unit, e.metrics, ResidualVariances(e.metrics), false);
+    ConfirmationRow row{round,
+                        ToUnits(unit.data()),
+                        e.metrics,
+                        static_cast<int64_t>(high.size()),
+                        Within(e.metrics, options.targets, 1.0),
+                        clear_miss,
+                        SecondsSince(start)};
     if (options.on_confirmation) options.on_confirmation(row);
     report.confirmations.push_back(std::move(row));
+    e.totals = std::move(low);
     return e;
   }
+  void UpdateNoise(const std::vector<ImageTotals>& low, const std::vector<ImageTotals>& high) {
+    for (size_t i = 0; i < options.targets.size(); ++i) {
+      const TwoPhaseEstimate estimate = EstimateMetric(low, high, options.targets[i].metric);
+      noise[i].low_variance = estimate.low_variance;
+      if (high.size() >= kMinConfirmPairs / 2) noise[i].difference_variance = estimate.difference_variance;
+    }
+  }
 
-  // One evaluation on the common seeds; `exact` evaluates those params as given (the start
-  // point), otherwise they are decoded from `unit`.
+  // The variance of each target's residual (in tolerances squared), from its 95% CI, or
+  // over the layouts of an evaluation; a floor keeps a metric that never varied (a share of
+  // 0) from weighing infinitely.
+  std::vector<double> ResidualVariances(const ProxyMetrics& m) const {
+    std::vector<double> v;
+    for (const Target& t : options.targets) v.push_back(std::max(1e-6, std::pow(StandardError(m, t), 2)));
+    return v;
+  }
+  std::vector<double> ResidualVariances(const std::vector<ImageTotals>& totals) const {
+    std::vector<double> v;
+    for (const Target& t : options.targets) {
+      v.push_back(std::max(1e-6, std::pow(EstimateMetric(totals, {}, t.metric).standard_error / t.tolerance, 2)));
+    }
+    return v;
+  }
+
+  // One evaluation on the common seeds (NLopt's methods, and round one's start); `exact`
+  // evaluates those params as given (the start point), otherwise they are decoded from `unit`.
   //
   // `confirmed`, at a round's start, is the previous round's confirmation of these params
   // on fresh seeds. Its difference from the common seeds is mostly their own sampling
@@ -334,17 +537,11 @@ struct Search {
     if (exact) {
       params = *exact;
     } else {
-      Result<LayoutParams> decoded = options.space.Decode(options.start, ToUnits(unit.data()));
-      if (!decoded.ok()) {
-        return decoded.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
-      }
-      params = *std::move(decoded);
+      SOLID_ASSIGN_OR_RETURN(params, Decode(unit));
     }
-    const Clock::time_point evaluation_start = Clock::now();
     Result<Evaluation> e = Evaluate(params, library, Eval(0, layouts));
     if (!e.ok()) return e.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
-    evaluation_seconds += SecondsSince(evaluation_start);
-    evaluated_layouts += layouts;
+    AddCost(*e, layouts, false);
     if (confirmed) {
       for (size_t i = 0; i < search_targets.size(); ++i) {
         const Metric metric = options.targets[i].metric;
@@ -353,19 +550,32 @@ struct Search {
       }
     }
     const double objective = Objective(e->metrics, search_targets);
-    TraceRow row{++report.evaluations, round, phase, ToUnits(unit.data()), e->metrics, objective,
-                 SecondsSince(start), layouts};
-    if (options.on_evaluation) options.on_evaluation(row);
-    report.trace.push_back(std::move(row));
+    Trace(unit, e->metrics, objective);
     if (objective < best_objective) {
       best_objective = objective;
-      best_unit = unit;
-      report.best = params;
-      report.search_metrics = e->metrics;
-      met = Within(e->metrics, search_targets, options.search_margin);
+      SetBest(unit, params, *e);
+      met = WithinSearchMargin(e->metrics, e->totals);
     }
     if (!exact) measured.emplace(unit, e->metrics);
     return Measured{objective, std::move(e->metrics)};
+  }
+  void SetBest(const std::vector<double>& unit, const LayoutParams& params, const Evaluation& e) {
+    best_unit = unit;
+    report.best = params;
+    report.search_metrics = e.metrics;
+    best_totals = e.totals;
+  }
+  // Every residual on the common layouts within the search margin, or within its own
+  // standard error over them: closer than that the search would chase those layouts'
+  // sampling error, which only a confirmation measures.
+  bool WithinSearchMargin(const ProxyMetrics& m, const std::vector<ImageTotals>& totals) const {
+    for (const Target& t : search_targets) {
+      const double noise_floor = EstimateMetric(totals, {}, t.metric).standard_error / t.tolerance;
+      if (!(std::abs(MetricOf(m, t.metric).mean - t.value) <= std::max(options.search_margin, noise_floor) * t.tolerance)) {
+        return false;
+      }
+    }
+    return true;
   }
 
   // `unit` on the common layouts as Run measures it (a trace row), never taken as the best.
@@ -383,13 +593,53 @@ struct Search {
     at_output.width = at_output.height = 0;
     Result<Evaluation> e = Evaluate(params, library, at_output);
     if (!e.ok()) return e.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
-    output_seconds += e->seconds;
-    output_layouts += layouts;
-    TraceRow row{++report.evaluations, round, phase, ToUnits(ToUnit(options.space.Encode(params)).data()), e->metrics,
-                 Objective(e->metrics, options.targets), SecondsSince(start), layouts};
-    if (options.on_evaluation) options.on_evaluation(row);
-    report.trace.push_back(std::move(row));
+    AddCost(*e, layouts, true);
+    Trace(ToUnit(options.space.Encode(params)), e->metrics, Objective(e->metrics, options.targets));
     return e;
+  }
+
+  EvaluationOptions Eval(int64_t first, int64_t n) const {
+    return {options.seed, first, n, report.eval_width, report.eval_height, options.jobs, options.cancel};
+  }
+
+  // Gauss-Newton's evaluation: `unit` on layouts of its own at the evaluation resolution, an
+  // observation of the local model. Common layouts would pair nearby points only weakly
+  // (local_model.h), and fresh ones let every evaluation near a point inform its level.
+  Result<Evaluation> Measure(const std::vector<double>& unit, const LayoutParams& params) {
+    const int64_t first = kSearchFirst + fresh_evaluations * kSearchStride;
+    ++fresh_evaluations;
+    Result<Evaluation> e = Evaluate(params, library, Eval(first, layouts));
+    if (!e.ok()) return e.status().WithContext(fmt::format("optimizer: evaluation {}", report.evaluations + 1));
+    AddCost(*e, layouts, false);
+    Observe(unit, e->metrics, ResidualVariances(e->totals), true);
+    Trace(unit, e->metrics, Objective(e->metrics, options.targets));
+    return e;
+  }
+
+  // The local model at `centre` (local_model.h), the evaluations carried to the output
+  // resolution by the pooled offset.
+  LocalModel Fit(const std::vector<double>& centre) const {
+    // How far the model reaches (unit cube), and how far its slopes may stray, in
+    // tolerances per unit, from the latest model's without evidence.
+    constexpr double kModelRadius = 0.3, kPriorSlope = 30;
+    std::vector<Observation> at_output = observations;
+    for (size_t k = 0; k < at_output.size(); ++k) {
+      if (!at_evaluation_resolution[k]) continue;
+      for (size_t i = 0; i < options.targets.size(); ++i) at_output[k].residuals[i] += offset[i] / options.targets[i].tolerance;
+    }
+    const std::vector<double> prior = jacobian.empty() ? std::vector<double>(options.targets.size() * dims.size()) : jacobian;
+    return FitLocalModel(at_output, centre, kModelRadius, prior, kPriorSlope);
+  }
+  // The model's level within the margin of every target, known to within 0.4 tolerances: no
+  // step would be worth its evaluation, and a confirmation decides.
+  bool ModelWithinMargin(const LocalModel& model) const {
+    constexpr double kKnownWithin = 0.4;
+    for (size_t i = 0; i < model.residuals.size(); ++i) {
+      if (!(std::abs(model.residuals[i]) <= options.search_margin && model.variances[i] <= kKnownWithin * kKnownWithin)) {
+        return false;
+      }
+    }
+    return true;
   }
 
   static double Callback(unsigned n, const double* x, double* /*gradient*/, void* data) {
@@ -428,217 +678,99 @@ struct Search {
     if (result < 0 && result != NLOPT_FORCED_STOP && result != NLOPT_ROUNDOFF_LIMITED) {
       return InternalError(fmt::format("nlopt {}: {}", name, nlopt_result_to_string(result)));
     }
-    report.stop_reason = StopReason(fmt::format("{} converged ({})", name, nlopt_result_to_string(result)));
+    round_note = SearchEnd(fmt::format("{} converged ({})", name, nlopt_result_to_string(result)));
     return Status::Ok();
   }
 
-  // Trust-region Gauss-Newton on the residual vector, from the best point. The objective is
-  // a sum of squares of a few residuals that respond smoothly, on the whole, to the knobs,
-  // but the common seeds leave steps as small as the layouts are discrete: Sbplx on the sum
-  // spent most of its evaluations on that noise (README, "solid optimize"). Here a
-  // central difference per dimension, with a step well above the noise, gives the
-  // Jacobian (trace phase "jacobian"); each step solves the linear model inside the trust
-  // region and the unit cube; Broyden updates keep the Jacobian current between
-  // recomputations. A later round starts from the previous round's Jacobian.
-  Status GaussNewton(int max_evaluations, double step_scale) {
-    constexpr double kMinDifference = 0.1, kMaxDifference = 0.15;  // unit-cube difference steps
-    constexpr double kMinRadius = 1e-3;
-    // A central difference's sampling error is about sigma / h, sigma the standard error of
-    // one measurement. The steps above were measured to work for the 8-object rows, whose
-    // residuals' largest standard error at 100 layouts is 0.8-1.0 tolerances; a start
-    // measured well above that differences twice as far. more-objects (the count's 1.9 at
-    // 100 layouts): with the narrow steps its Jacobians were mostly noise and the search
-    // stalled 2-3 tolerances from the targets; with the wide ones it met the row in 39-48 s.
-    constexpr double kNoisyStart = 1.5;  // tolerances
-    const double widening = LargestStandardError(report.search_metrics, search_targets) > kNoisyStart ? 2.0 : 1.0;
+  // Trust-region Gauss-Newton on a local model of the residuals (local_model.h), from the
+  // best point: a design of differences around the centre (two evaluations per free
+  // dimension, both sides where both fit in the cube, since some knobs move the metrics with
+  // a kink: a camera ring that moves one way changes occlusion, the other way the large
+  // share), then steps to where the model meets the targets, inside a trust region and the
+  // unit cube. Each step's evaluation joins the model, and the step is taken when the model
+  // refitted with it says the new point is nearer the targets than the centre; the model is
+  // refitted at the new centre, and a new design is measured once the centre has left the
+  // last one's reach. Every evaluation and confirmation of the fit near the centre informs
+  // its slopes and its level, so the model's error shrinks as evaluations gather, where a
+  // Jacobian of the last differences alone would stay as noisy as its two evaluations.
+  Status GaussNewton(int max_evaluations) {
+    constexpr double kDesignStep = 0.15, kRedesignAt = 0.3;  // unit cube
+    constexpr double kLeastRadius = 0.02, kLargestRadius = 0.5;
     const size_t n = dims.size();
     const int last = report.evaluations + max_evaluations;
-    auto stop = [&] { return met || OutOfBudget() || report.evaluations >= last; };
-    std::vector<double> x = best_unit;
-    std::vector<double> r = Residuals(report.search_metrics, search_targets);
-    const size_t m = r.size();
-    double radius = 0.3 * step_scale;
-    std::vector<double> jacobian(m * n);
-    bool jacobian_current = previous_jacobian.size() == jacobian.size();
-    if (jacobian_current) jacobian = previous_jacobian;
-    bool jacobian_fresh = false;  // computed by differences, no Broyden update since
-    int rejected = 0;
-    // A Jacobian has been in use: differenced here, or the previous round's.
-    bool differenced = jacobian_current;
+    auto stop = [&] { return OutOfBudget() || report.evaluations >= last; };
+    std::map<std::vector<double>, std::pair<LayoutParams, Evaluation>> measured_here;
+    auto measure = [&](const std::vector<double>& unit) -> Status {
+      SOLID_ASSIGN_OR_RETURN(LayoutParams params, Decode(unit));
+      SOLID_ASSIGN_OR_RETURN(Evaluation e, Measure(unit, params));
+      measured_here[unit] = {std::move(params), std::move(e)};
+      return Status::Ok();
+    };
+    auto distance = [](const std::vector<double>& a, const std::vector<double>& b) {
+      double sum = 0;
+      for (size_t j = 0; j < a.size(); ++j) sum += (a[j] - b[j]) * (a[j] - b[j]);
+      return std::sqrt(sum);
+    };
+    std::vector<double> centre = best_unit;
     std::string converged;
     while (!stop()) {
-      // Differencing again costs an evaluation per dimension. When the best point already
-      // meets every target on the common layouts, confirming it on fresh ones is cheaper
-      // and tells more: their sampling error is what is left, and a missed confirmation
-      // starts a round that searches for the targets shifted by it.
-      if (!jacobian_current && differenced && Within(report.search_metrics, search_targets, 1.0)) {
-        converged = "every target within its tolerance on the common layouts; confirming instead of differencing again";
-        break;
-      }
-      if (!jacobian_current) {
-        differenced = true;
+      if (design_centre.empty() || distance(design_centre, centre) > kRedesignAt) {
         phase = "jacobian";
-        const double h = widening * std::clamp(radius, kMinDifference, kMaxDifference);
         for (size_t j = 0; j < n && !stop(); ++j) {
-          // Both sides where both fit in the cube: the metrics respond to some knobs with a
-          // kink (a camera ring that moves one way changes occlusion, the other way the
-          // large share), and a one-sided difference sees one arm of it.
-          const double up = std::min(h, 1 - x[j]), down = std::min(h, x[j]);
-          std::vector<double> hi = x, lo = x;
-          hi[j] += up;
-          lo[j] -= down;
-          std::vector<double> r_hi = r, r_lo = r;
-          if (up > 0) {
-            SOLID_ASSIGN_OR_RETURN(const Measured at, Run(hi, nullptr));
-            r_hi = Residuals(at.metrics, search_targets);
+          for (const double side : {1.0, -1.0}) {
+            std::vector<double> at = centre;
+            at[j] = std::clamp(centre[j] + side * kDesignStep, 0.0, 1.0);
+            if (at[j] != centre[j] && !stop()) SOLID_RETURN_IF_ERROR(measure(at));
           }
-          if (down > 0 && !stop()) {
-            SOLID_ASSIGN_OR_RETURN(const Measured at, Run(lo, nullptr));
-            r_lo = Residuals(at.metrics, search_targets);
-          } else {
-            lo = x;
-          }
-          const double span = hi[j] - lo[j];
-          for (size_t i = 0; i < m; ++i) jacobian[i * n + j] = span > 0 ? (r_hi[i] - r_lo[i]) / span : 0;
         }
+        design_centre = centre;
         phase = "local";
         if (stop()) break;
-        jacobian_current = jacobian_fresh = true;
       }
-      const LinearModel model = DampedModel(r, jacobian, n);
-      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, StepWithin(model, x, radius));
-      const double predicted = SquaredNorm(r) - SquaredNorm(model.Predict(d.data()));
-      const double step = LargestComponent(d);
-      if (!(predicted > 0) || step < kMinRadius) {
-        // A stationary point of the model within the bounds; one measured afresh decides.
-        if (jacobian_fresh) {
-          converged = "no step within the bounds improves the linear model";
-          break;
-        }
-        jacobian_current = false;
-        continue;
+      const LocalModel model = Fit(centre);
+      jacobian = model.jacobian;
+      if (ModelWithinMargin(model)) {
+        met = true;
+        converged = "the local model within the margin at its centre";
+        break;
       }
-      std::vector<double> next = x;
-      for (size_t j = 0; j < n; ++j) next[j] = std::clamp(x[j] + d[j], 0.0, 1.0);
-      SOLID_ASSIGN_OR_RETURN(const Measured at_next, Run(next, nullptr));
-      const std::vector<double> r_next = Residuals(at_next.metrics, search_targets);
-      const double actual = SquaredNorm(r) - SquaredNorm(r_next);
-      // Broyden's rank-one update: the Jacobian now maps d to the change it caused.
-      const std::vector<double> linear = model.Predict(d.data());
-      double dd = 0;
-      for (double e : d) dd += e * e;
-      for (size_t i = 0; i < m; ++i) {
-        const double miss = (r_next[i] - linear[i]) / dd;
-        for (size_t j = 0; j < n; ++j) jacobian[i * n + j] += miss * d[j];
+      const LinearModel linear = DampedModel(model.residuals, model.jacobian, n);
+      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, StepWithin(linear, centre, trust_radius));
+      const double predicted = SquaredNorm(model.residuals) - SquaredNorm(linear.Predict(d.data()));
+      if (!(predicted > 0) || LargestComponent(d) < kAtBound) {
+        stationary = true;
+        converged = std::string(kStationary);
+        break;
       }
-      jacobian_fresh = false;
-      if (actual > 0.1 * predicted) {
-        x = next;
-        r = r_next;
-        rejected = 0;
-        if (actual > 0.5 * predicted && step >= 0.99 * radius) radius = std::min(1.0, 2 * radius);
+      std::vector<double> next = centre;
+      for (size_t j = 0; j < n; ++j) next[j] = std::clamp(centre[j] + d[j], 0.0, 1.0);
+      SOLID_RETURN_IF_ERROR(measure(next));
+      const double there = SquaredNorm(Fit(next).residuals), here = SquaredNorm(Fit(centre).residuals);
+      if (there < here) {
+        centre = next;
+        const auto& [params, e] = measured_here[next];
+        SetBest(next, params, e);
+        if (LargestComponent(d) >= 0.99 * trust_radius) trust_radius = std::min(kLargestRadius, 2 * trust_radius);
       } else {
-        radius *= 0.5;
-        // Twice in a row: the rank-one updates no longer describe the function here.
-        if (++rejected >= 2) {
-          jacobian_current = false;
-          rejected = 0;
-        }
-        if (radius < kMinRadius) {
-          converged = "the trust region shrank below 0.001 of the bounds";
+        trust_radius *= 0.5;
+        if (trust_radius < kLeastRadius) {
+          trust_radius = kLeastRadius;
+          converged = "the trust region shrank below 0.02 of the bounds";
           break;
         }
       }
     }
-    if (differenced) previous_jacobian = jacobian;
-    report.stop_reason = StopReason(converged.empty() ? "gauss-newton: evaluation budget" : "gauss-newton: " + converged);
+    round_note = SearchEnd(converged.empty() ? "gauss-newton: evaluation budget" : "gauss-newton: " + converged);
     return Status::Ok();
   }
 
-  // A confirmed point that is near the targets but outside the search margin: Gauss-Newton
-  // steps on the confirmations' own residuals, with the round's last Jacobian. A
-  // confirmation measures the point on fresh layouts at the output resolution, so it is
-  // free of what the common layouts' sampling error and the evaluation resolution leave in
-  // the search's aim; a step costs one confirmation (and one evaluation on the common
-  // layouts, for the report's search metrics), where another round searches again on twice
-  // the layouts. The aim pools the confirmations so far, each earlier one carried to the
-  // new point by the linear model: one confirmation of 500 layouts measures the count with
-  // a standard error of about 0.2, most of its tolerance. Each step's point stands on its
-  // own confirmation: it is reported when that one meets every target.
-  bool Correctable(const ProxyMetrics& confirmed) const {
-    constexpr double kNearTolerances = 3;  // where the last Jacobian still describes the residuals
-    if (previous_jacobian.size() != dims.size() * options.targets.size()) return false;
-    for (double e : Residuals(confirmed, options.targets)) {
-      if (!(std::abs(e) <= kNearTolerances)) return false;
-    }
-    return true;
-  }
-  template <typename OnConfirmed>
-  Status Correct(Evaluation& confirmation, OnConfirmed on_confirmed) {
-    constexpr double kRadius = 0.15;  // unit cube: the largest difference step
-    const size_t n = dims.size();
-    std::vector<double> aim = Residuals(confirmation.metrics, options.targets);
-    double aim_layouts = static_cast<double>(options.confirm_layouts);
-    phase = "correct";
-    // Done when the latest confirmation meets every target and the aim is within the search
-    // margin or within one standard error of the pooled confirmations: a step shorter than
-    // the aim's own sampling error would chase that error. (Against the margin alone, 500
-    // layouts measure the count within 0.125 of the target, half its tolerance, for a point
-    // exactly on it less than half the time: the main job spent its budget on six steps.)
-    auto settled = [&] {
-      if (!Within(confirmation.metrics, options.targets, 1.0)) return false;
-      const double pooled = std::sqrt(static_cast<double>(options.confirm_layouts) / aim_layouts);
-      for (size_t i = 0; i < aim.size(); ++i) {
-        const Target& t = options.targets[i];
-        const double standard_error = StandardError(confirmation.metrics, t) * pooled;
-        if (std::abs(aim[i]) > std::max(options.search_margin, standard_error)) return false;
-      }
-      return true;
-    };
-    while (!settled() && !OutOfBudget()) {
-      const LinearModel model = DampedModel(aim, previous_jacobian, n);
-      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, StepWithin(model, best_unit, kRadius));
-      if (LargestComponent(d) < kAtBound) break;
-      std::vector<double> next = best_unit;
-      for (size_t j = 0; j < n; ++j) next[j] = std::clamp(best_unit[j] + d[j], 0.0, 1.0);
-      SOLID_ASSIGN_OR_RETURN(LayoutParams params, options.space.Decode(options.start, ToUnits(next.data())));
-      // The confirmation, not the common layouts, decides whether the step's point is kept.
-      SOLID_ASSIGN_OR_RETURN(const Measured common, RunAside(next));
-      const std::vector<double> carried = model.Predict(d.data());
-      SOLID_ASSIGN_OR_RETURN(Evaluation stepped, Confirm(params, next, "correct"));
-      ++corrections;
-      // While no confirmation has met every target, a step whose confirmation misses and is
-      // farther from the targets than the point it left shows that the linear model is wrong
-      // here: further steps would follow it (more-objects, seed 2: three steps took the
-      // count from 13.5 to 18.0). The point it left stays the fit. Once one has met, steps
-      // go on: that point is reported unless a later one meets (met_earlier), and the pooled
-      // aim learns from the miss (discarding there cost scale-distribution, seed 1, the
-      // better-centred point a later step found).
-      const bool any_met = std::any_of(report.confirmations.begin(), report.confirmations.end() - 1,
-                                       [](const ConfirmationRow& c) { return c.met; });
-      if (!any_met && !Within(stepped.metrics, options.targets, 1.0) &&
-          Objective(stepped.metrics, options.targets) > Objective(confirmation.metrics, options.targets)) {
-        correction_discarded = true;
-        break;
-      }
-      confirmation = std::move(stepped);
-      best_unit = next;
-      report.best = std::move(params);
-      report.search_metrics = common.metrics;
-      best_objective = common.objective;
-      on_confirmed(confirmation);
-      const std::vector<double> fresh = Residuals(confirmation.metrics, options.targets);
-      const double layouts_now = static_cast<double>(options.confirm_layouts);
-      for (size_t i = 0; i < aim.size(); ++i) {
-        aim[i] = (aim_layouts * carried[i] + layouts_now * fresh[i]) / (aim_layouts + layouts_now);
-      }
-      aim_layouts += layouts_now;
-    }
-    return Status::Ok();
+  bool AtABound() const {
+    return std::any_of(best_unit.begin(), best_unit.end(), [](double u) { return u <= kAtBound || u >= 1 - kAtBound; });
   }
 
   // For the unmet targets: the free dimensions at a bound for which a step inside makes the
-  // metric worse, i.e. the bound is in the way. One probe per dimension at a bound.
+  // metric worse, i.e. the bound is in the way: by the local model's slopes where Gauss-
+  // Newton has one, else by one probe per dimension at a bound on the common layouts.
   Status FindBlockers(std::vector<TargetResult>& results) {
     phase = "probe";
     for (size_t i = 0; i < dims.size(); ++i) {
@@ -646,12 +778,18 @@ struct Search {
       if (!at_lo && !at_hi) continue;
       std::vector<double> probe = best_unit;
       probe[i] += at_lo ? kProbeStep : -kProbeStep;
-      SOLID_ASSIGN_OR_RETURN(const Measured f, RunAside(probe));
-      for (TargetResult& t : results) {
+      std::optional<ProxyMetrics> probed;
+      if (jacobian.empty()) {
+        SOLID_ASSIGN_OR_RETURN(const Measured f, RunAside(probe));
+        probed = f.metrics;
+      }
+      for (size_t k = 0; k < results.size(); ++k) {
+        TargetResult& t = results[k];
         if (t.met) continue;
         const double need = t.target.value - t.predicted.mean;
         const double at_best = MetricOf(report.search_metrics, t.target.metric).mean;
-        const double moved = MetricOf(f.metrics, t.target.metric).mean - at_best;
+        const double moved = probed ? MetricOf(*probed, t.target.metric).mean - at_best
+                                    : jacobian[k * dims.size() + i] * (probe[i] - best_unit[i]) * t.target.tolerance;
         if (moved * need >= 0) continue;
         t.blocked_by.push_back(fmt::format("{} at its {} bound {:g} (a step inside moves {} from {:.4g} to {:.4g})",
                                            dims[i].name, at_lo ? "lower" : "upper", at_lo ? dims[i].lo : dims[i].hi,
@@ -742,10 +880,12 @@ Result<Evaluation> Evaluate(const LayoutParams& params, std::shared_ptr<render::
   sample.layouts = options.layouts;
   sample.jobs = options.jobs;
   sample.metrics_only = true;
+  sample.image_totals = true;
   sample.cancel = options.cancel;
   SOLID_ASSIGN_OR_RETURN(const render::SampleReport report, render::RunSample(*sampler, sample));
   Evaluation e;
   e.metrics = report.metrics;
+  e.totals = std::move(report.image_totals);
   e.failed_layouts = report.failed_layouts;
   e.seconds = SecondsSince(start);
   return e;
@@ -759,9 +899,15 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     }
   }
   for (const auto& [field, value] : {std::pair<const char*, int64_t>{"layouts", options.layouts},
-                                     {"confirm_layouts", options.confirm_layouts},
                                      {"max_rounds", options.max_rounds}}) {
     if (value < 1) return OptionError(field, fmt::format("must be >= 1, got {}", value));
+  }
+  for (const auto& [field, value] : {std::pair<const char*, int64_t>{"confirm_layouts", options.confirm_layouts},
+                                     {"confirm_output_layouts", options.confirm_output_layouts}}) {
+    if (value < 0) return OptionError(field, fmt::format("must be >= 0 (0: sized by the noise), got {}", value));
+  }
+  if (!(options.confirm_standard_error > 0)) {
+    return OptionError("confirm_standard_error", fmt::format("must be > 0, got {}", options.confirm_standard_error));
   }
   SOLID_ASSIGN_OR_RETURN(const nlopt_algorithm local, AlgorithmByName(options.algorithm, false));
   std::optional<nlopt_algorithm> global;
@@ -785,6 +931,9 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
   } else {
     DefaultEvaluationResolution(options.start, &r.eval_width, &r.eval_height);
   }
+  s.two_phase = r.eval_width != options.start.width || r.eval_height != options.start.height;
+  s.noise.resize(options.targets.size());
+  s.offset.assign(options.targets.size(), 0.0);
   const std::vector<double> start_unit = s.ToUnit(options.space.Encode(options.start));
   Evaluation confirmation;
   struct Confirmed {
@@ -794,34 +943,58 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     Evaluation confirmation;
   };
   std::optional<Confirmed> met_earlier;
+  const bool gauss_newton = options.algorithm == kGaussNewton;
   const Status searched = [&]() -> Status {
-    for (s.round = 0; s.round < options.max_rounds; ++s.round) {
+    // Ends the fit: `ending` is one of OptimizeReport::ending's words.
+    auto end_with = [&](std::string_view ending) { r.ending = std::string(ending); };
+    for (s.round = 0;; ++s.round) {
+      if (s.round == options.max_rounds) {
+        end_with("rounds");
+        break;
+      }
+      if (s.round > 0 && s.OutOfBudget()) {
+        end_with(s.SpentBudget());
+        break;
+      }
       r.rounds = s.round + 1;
-      s.round_start = Clock::now();
       s.round_first_evaluation = r.evaluations;
-      s.layouts = options.layouts << s.round;
+      // NLopt's methods search common layouts, twice as many each round; Gauss-Newton's
+      // local model gathers its evaluations instead.
+      s.layouts = gauss_newton ? options.layouts : options.layouts << std::min(s.round, kMaxLayoutDoublings);
       s.phase = "start";
-      s.best_objective = std::numeric_limits<double>::infinity();
-      s.measured.clear();  // new common seeds
-      // The start itself, exactly: a target it already meets costs no search.
+      s.met = false;
+      s.stationary = false;
+      s.round_note.clear();
       if (s.round == 0) {
-        // Masks at the evaluation resolution lose the smallest objects and move areas near
-        // the class thresholds; the same layouts at the output resolution measure by how
-        // much, and the search aims at the targets shifted by that (as later rounds aim at
-        // them shifted by the confirmation).
+        // The start itself, exactly: a target it already meets costs no search. Masks at the
+        // evaluation resolution lose the smallest objects and move areas near the class
+        // thresholds; the same layouts at the output resolution measure by how much.
         std::optional<Evaluation> at_output;
-        if (r.eval_width != options.start.width || r.eval_height != options.start.height) {
+        if (s.two_phase) {
           s.phase = "output";
           SOLID_ASSIGN_OR_RETURN(at_output, s.RunAtOutput(options.start));
+          s.start_output_totals = at_output->totals;
           s.phase = "start";
         }
-        SOLID_RETURN_IF_ERROR(s.Run(start_unit, &options.start, at_output ? &at_output->metrics : nullptr).status());
-      } else {
+        SOLID_ASSIGN_OR_RETURN(const Search::Measured at_start,
+                               s.Run(start_unit, &options.start, at_output ? &at_output->metrics : nullptr));
+        s.start_totals = s.best_totals;
+        if (gauss_newton) {
+          s.Observe(start_unit, at_start.metrics, s.ResidualVariances(s.start_totals), true);
+          if (at_output) {
+            s.Observe(start_unit, at_output->metrics, s.ResidualVariances(at_output->totals), false);
+            s.PoolOffset(s.start_totals, s.start_output_totals);
+          }
+        }
+      } else if (!gauss_newton) {
+        // New common layouts, aimed at the targets shifted by the confirmation.
+        s.best_objective = std::numeric_limits<double>::infinity();
+        s.measured.clear();
         const LayoutParams previous = r.best;
         SOLID_RETURN_IF_ERROR(s.Run(s.best_unit, &previous, &confirmation.metrics).status());
       }
       if (s.met || s.OutOfBudget()) {
-        r.stop_reason = s.StopReason("");
+        s.round_note = s.SearchEnd("");
       } else {
         if (global && s.round == 0) {
           s.phase = "global";
@@ -831,36 +1004,36 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         if (!s.met && !s.OutOfBudget()) {
           s.phase = "local";
           const int budget = options.max_evaluations - r.evaluations;
-          const double step_scale = std::ldexp(1.0, -s.round);
-          SOLID_RETURN_IF_ERROR(options.algorithm == kGaussNewton
-                                    ? s.GaussNewton(budget, step_scale)
-                                    : s.Minimize(local, options.algorithm, budget, step_scale));
+          SOLID_RETURN_IF_ERROR(gauss_newton ? s.GaussNewton(budget)
+                                             : s.Minimize(local, options.algorithm, budget,
+                                                          std::ldexp(1.0, -std::min(s.round, kMaxLayoutDoublings))));
         }
       }
-      SOLID_ASSIGN_OR_RETURN(confirmation, s.Confirm(r.best, s.best_unit, "round"));
-      auto on_confirmed = [&](const Evaluation& e) {
-        if (Within(e.metrics, options.targets, 1.0)) met_earlier = Confirmed{r.best, s.best_unit, r.search_metrics, e};
-      };
-      on_confirmed(confirmation);
-      // Within the search margin is enough to stop. Outside it, the next fresh layouts may
-      // well fall outside the tolerance: near the targets, steps on the confirmations
-      // correct the point; farther, another round searches again while the budget has
-      // room for one like the last. A confirmation that missed is corrected only when no
-      // round fits: the last Jacobian is one noisy difference plus rank-one updates, and
-      // steps from a miss can wander off where a round searches again (scenenet-background
-      // with seed 2: two steps ended at 9.48 objects against 8.72, a second round met it).
-      // From a confirmation that met, a step cannot lose the fit (met_earlier below).
-      if (Within(confirmation.metrics, options.targets, options.search_margin) || s.OutOfBudget()) break;
-      const bool confirmed_met = r.confirmations.back().met;
-      if (s.Correctable(confirmation.metrics) && (confirmed_met || !s.RoomForAnotherRound())) {
-        SOLID_RETURN_IF_ERROR(s.Correct(confirmation, on_confirmed));
+      SOLID_ASSIGN_OR_RETURN(confirmation, s.Confirm(r.best, s.best_unit));
+      if (Within(confirmation.metrics, options.targets, 1.0)) {
+        met_earlier = Confirmed{r.best, s.best_unit, r.search_metrics, confirmation};
+      }
+      const ConfirmationRow& confirmed = r.confirmations.back();
+      r.history.push_back(fmt::format(
+          "round {}: {} evaluations of {} layouts, {}; confirmation on {} layouts{}: {}", s.round + 1,
+          r.evaluations - s.round_first_evaluation, s.layouts, s.round_note, confirmed.metrics.images,
+          s.two_phase ? fmt::format(" ({} also at the output resolution)", confirmed.output_layouts) : "",
+          confirmed.met ? "met" : confirmed.clear_miss ? "a clear miss" : "missed"));
+      // Within the search margin is enough to stop. Outside it the next fresh layouts may
+      // well fall outside the tolerance, so the search goes on from the confirmed point: for
+      // Gauss-Newton the confirmation joins the local model as its most precise measurement,
+      // and the fit ends when the confirmation meets every target and the model, pooling it
+      // with the evaluations near it, puts the point within the margin (the model's own
+      // stopping rule: otherwise its next round would confirm the same point again).
+      if (gauss_newton ? confirmed.met && s.ModelWithinMargin(s.Fit(s.best_unit))
+                       : Within(confirmation.metrics, options.targets, options.search_margin)) {
+        end_with("met");
         break;
       }
-      if (confirmed_met && !s.RoomForAnotherRound()) break;
-    }
-    if (s.corrections > 0) {
-      r.stop_reason += fmt::format("; then {} correction step(s) on the confirmations", s.corrections);
-      if (s.correction_discarded) r.stop_reason += ", the last discarded: its confirmation was farther from the targets";
+      if (s.stationary && s.AtABound()) {
+        end_with("blocked");
+        break;
+      }
     }
     // Each round aims closer than the last, so its point is the one reported, unless its
     // confirmation missed where an earlier round's met every target. (Choosing the best of
@@ -877,6 +1050,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     if (s.best_unit.empty()) return CancelledError("optimizer: stopped before the first evaluation finished");
     r.cancelled = true;
     r.all_met = false;
+    r.ending = "cancelled";
     r.stop_reason = fmt::format("stopped after {} evaluations, before the best point was confirmed", r.evaluations);
     r.best_x = s.ToUnits(s.best_unit.data());
     for (const Target& t : options.targets) {
@@ -891,6 +1065,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     return std::move(s.report);
   }
   SOLID_RETURN_IF_ERROR(searched);
+  r.stop_reason = StopReason(r.ending, options);
   r.confirmation = confirmation.metrics;
   r.best_x = s.ToUnits(s.best_unit.data());
   r.all_met = true;
@@ -899,7 +1074,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     tr.target = t;
     tr.predicted = MetricOf(r.confirmation, t.metric);
     tr.met = std::abs(tr.predicted.mean - t.value) <= t.tolerance;
-    tr.search_offset = t.value - s.search_targets[r.results.size()].value;
+    tr.search_offset = gauss_newton ? s.offset[r.results.size()] : t.value - s.search_targets[r.results.size()].value;
     r.all_met = r.all_met && tr.met;
     r.results.push_back(std::move(tr));
   }
@@ -919,7 +1094,6 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
   r.seconds = SecondsSince(s.start);
   return std::move(s.report);
 }
-
 nlohmann::json OptimizeReport::ToJson() const {
   auto est = [](const Estimate& e) { return nlohmann::json{{"mean", e.mean}, {"ci95", e.ci95}}; };
   nlohmann::json targets = nlohmann::json::array();
@@ -950,17 +1124,20 @@ nlohmann::json OptimizeReport::ToJson() const {
                       {"evaluations", evaluations},
                       {"rounds", rounds},
                       {"seconds", seconds},
+                      {"ending", ending},
                       {"stop_reason", stop_reason},
+                      {"history", history},
                       {"cancelled", cancelled},
                       {"params", render::ParamsToJson(best)}};
   if (pilot) j["pilot"] = pilot->ToJson();
   nlohmann::json confirmed = nlohmann::json::array();
   for (const ConfirmationRow& c : confirmations) {
     confirmed.push_back({{"round", c.round},
-                         {"phase", c.phase},
                          {"x", c.x},
                          {"metrics", c.metrics.ToJson()},
+                         {"output_layouts", c.output_layouts},
                          {"met", c.met},
+                         {"clear_miss", c.clear_miss},
                          {"seconds", c.seconds}});
   }
   j["confirmations"] = std::move(confirmed);
@@ -1022,7 +1199,8 @@ uint64_t FitFingerprint(const OptimizeOptions& o, uint64_t catalog_hash) {
       {"targets", targets},
       {"options",
        {o.algorithm, o.global_algorithm, o.global_evaluations, Hex64(o.seed), o.layouts, o.eval_width, o.eval_height,
-        o.confirm_layouts, o.pilot_layouts, o.max_evaluations, o.max_seconds, o.search_margin, o.max_rounds}}};
+        o.confirm_layouts, o.confirm_output_layouts, o.confirm_standard_error, o.pilot_layouts, o.max_evaluations,
+        o.max_seconds, o.search_margin, o.max_rounds}}};
   return Xxh64(identity.dump());
 }
 

@@ -160,6 +160,10 @@ Result<SampleReport> RunSample(const LayoutSampler& sampler, const SampleOptions
     }
     report.restarts += s.restarts;
     metrics.AddImage(s.annotated);
+    if (options.image_totals) {
+      report.image_totals.push_back(TotalsOfImage(options.first + (&s - summaries.data()), s.annotated,
+                                                  ScaleClassAreaScale(params, params.width, params.height)));
+    }
     for (const InstanceRecord& r : s.annotated) {
       report.viewpoints.Add(r.view_azimuth, r.view_elevation);
       truncation_sum += r.truncation;

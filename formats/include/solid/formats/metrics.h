@@ -31,6 +31,20 @@ struct ProxyMetrics {
   nlohmann::json ToJson() const;
 };
 
+// What one image adds to the proxy metrics, as sums over its visible instances: each metric
+// is a ratio of such sums over images (objects per image: visible / images; occlusion:
+// occlusion / visible; a share: its count / visible). Kept per image they give standard
+// errors over images, the unit that is drawn (the instances of one image are not independent
+// draws), and they pair two measurements of the same image, at two resolutions say.
+struct ImageTotals {
+  int64_t index = 0;  // the image's (or layout's) index, for pairing
+  int64_t visible = 0;
+  double occlusion = 0;  // summed over the visible instances
+  int64_t small = 0, medium = 0, large = 0;
+};
+// Instances with visible_area 0 are not counted; scale classes as MetricsAccumulator's.
+ImageTotals TotalsOfImage(int64_t index, std::span<const InstanceRecord> instances, double area_scale = 1);
+
 class MetricsAccumulator {
  public:
   MetricsAccumulator() = default;

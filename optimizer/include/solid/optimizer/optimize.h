@@ -7,9 +7,11 @@
 // counted by a metrics-only mask pass at the evaluation resolution, and COCO scale classes
 // as at the params' scale-class resolution (render::ScaleClassResolution: areas scaled by
 // the pixel-count ratio; see MetricsAccumulator). The objective is
-// sum_i ((metric_i - target_i) / tolerance_i)^2. Common seeds are the layout indices
-// [0, layouts); each round's best point is re-measured at the output resolution on a
-// disjoint index range of its own from kConfirmFirst on, and pilots start at kPilotFirst.
+// sum_i ((metric_i - target_i) / tolerance_i)^2. Common seeds (round one's start, NLopt's
+// methods) are the layout indices [0, layouts); Gauss-Newton measures each evaluation on
+// layouts of its own from kSearchFirst on; each round's best point is re-measured
+// (confirmed) on a disjoint index range of its own from kConfirmFirst on, and pilots start
+// at kPilotFirst.
 //
 // Thread safety: Optimize and Evaluate use `jobs` threads and may run concurrently on
 // one AssetLibrary.
@@ -35,8 +37,11 @@
 
 namespace solid::optimizer {
 
+// Gauss-Newton's k-th evaluation (from 0) measures layouts from kSearchFirst + k * kSearchStride.
+inline constexpr int64_t kSearchFirst = int64_t{1} << 36;
+inline constexpr int64_t kSearchStride = int64_t{1} << 24;
 inline constexpr int64_t kConfirmFirst = int64_t{1} << 40;
-// The k-th confirmation (from 0: rounds and correction steps, in order) measures layouts
+// The k-th confirmation (from 0, one per round) measures layouts
 // from kConfirmFirst + k * kConfirmRoundStride.
 inline constexpr int64_t kConfirmRoundStride = int64_t{1} << 32;
 inline constexpr int64_t kPilotFirst = int64_t{1} << 41;
@@ -81,6 +86,7 @@ struct EvaluationOptions {
 
 struct Evaluation {
   ProxyMetrics metrics;
+  std::vector<ImageTotals> totals;  // per usable layout, in index order: what the metrics sum
   int64_t failed_layouts = 0;  // no usable draw within the restart budget; not in the metrics
   double seconds = 0;
 };
@@ -94,15 +100,14 @@ Result<Evaluation> Evaluate(const render::LayoutParams& params, std::shared_ptr<
 // height (160x120 for 640x480). A power-of-two divisor scales every projection exactly in
 // floating point, so the layouts are the output's, bit for bit (the frustum and clearance
 // tests compare pixel coordinates): only pixel counts differ, a mask pass costs about a
-// sixteenth, and the first round corrects for the difference (OptimizeOptions::layouts).
+// sixteenth, and the search corrects for the difference (OptimizeOptions::layouts).
 void DefaultEvaluationResolution(const render::LayoutParams& params, int* width, int* height);
 
 struct TraceRow {
   int evaluation = 0;  // from 1
   int round = 0;
   // "output" (round one's start on its common layouts at the output resolution), "start",
-  // "global", "jacobian" (gauss-newton's differences), "local", "correct" (a step on the
-  // confirmations, see OptimizeOptions::search_margin), "probe"
+  // "global", "jacobian" (gauss-newton's design of differences), "local", "probe"
   std::string phase;
   std::vector<double> x;
   ProxyMetrics metrics;
@@ -111,15 +116,18 @@ struct TraceRow {
   int64_t layouts = 0;
 };
 
-// A point re-measured on fresh layouts at the output resolution: a round's best point
-// (phase "round") or a correction step's ("correct"). These decide what is reported and
-// whether the search goes on; the trace has the common-layout evaluations only.
+// A round's best point re-measured on fresh layouts, its metrics estimated at the output
+// resolution (OptimizeOptions::confirm_layouts). These decide what is reported and whether
+// the search goes on; the trace has the evaluations only.
 struct ConfirmationRow {
   int round = 0;
-  std::string phase;
   std::vector<double> x;
-  ProxyMetrics metrics;
+  ProxyMetrics metrics;  // metrics.images: the layouts measured at the evaluation resolution
+  int64_t output_layouts = 0;  // of them, also measured at the output resolution
   bool met = false;    // every target within its tolerance
+  // Stopped after a part of its layouts: a target was missed by more than three standard
+  // errors beyond its tolerance, which the rest could not have turned.
+  bool clear_miss = false;
   double seconds = 0;  // since the start of Optimize, when it was done
 };
 
@@ -128,44 +136,58 @@ struct OptimizeOptions {
   SearchSpace space;
   std::vector<Target> targets;
   // Local algorithm. "gauss-newton" (default): a trust-region Gauss-Newton search on the
-  // residuals (metric - target) / tolerance, with central-difference Jacobians (two
-  // evaluations per free dimension, one where a bound leaves no room, steps of 0.1-0.15 of
-  // each dimension's bounds, well above the noise the common seeds leave), Broyden
-  // updates between them, and each step's bounded linear least-squares problem solved by
-  // NLopt's SLSQP. Or an NLopt derivative-free method on the objective: "sbplx",
-  // "neldermead", "bobyqa", "cobyla", "praxis".
+  // residuals (metric - target) / tolerance of a local linear model fitted to every
+  // evaluation and confirmation near the point (optimizer/local_model.h; a design of
+  // differences, two evaluations per free dimension, one where a bound leaves no room, at a
+  // quarter of each dimension's bounds), each evaluation on layouts of its own, and each
+  // step's bounded linear least-squares problem solved by NLopt's SLSQP. Or an NLopt
+  // derivative-free method on the objective over common layouts: "sbplx", "neldermead",
+  // "bobyqa", "cobyla", "praxis".
   std::string algorithm = "gauss-newton";
   // Optional global phase first: "crs2", "isres", "esch", "direct"; it gets
   // global_evaluations (0: a third of max_evaluations).
   std::string global_algorithm;
   int global_evaluations = 0;
   uint64_t seed = 1;
-  // Per evaluation, in the first round. The first round measures its start on the same
-  // layouts at the output resolution too, and searches for the targets shifted by what
-  // the evaluation resolution changes there (TargetResult::search_offset).
+  // Per evaluation (NLopt's methods: in the first round, then twice as many each round, up
+  // to eight times). The first round measures its start on the same layouts at the output
+  // resolution too, and the search aims at the targets shifted by what the evaluation
+  // resolution changes there (TargetResult::search_offset; Gauss-Newton pools it with the
+  // confirmations' pairs).
   int64_t layouts = 100;
   int eval_width = 0, eval_height = 0;  // 0: DefaultEvaluationResolution
-  // Fresh layouts at the output resolution that measure each round's best point: what
-  // the report states, and what decides whether another round runs.
-  int64_t confirm_layouts = 500;
+  // Fresh layouts that confirm each round's best point: what the
+  // report states, and what decides whether the search goes on. They are measured at the
+  // evaluation resolution, the first confirm_output_layouts of them at the output resolution
+  // too, and the output's metrics estimated as the former plus the difference the pairs
+  // measure (optimizer/estimator.h: a difference varies far less between layouts than the
+  // metrics do, so few costly pairs correct many cheap layouts); when the evaluation
+  // resolution is the output's, the layouts are measured once. 0: sized from the per-layout
+  // variances and costs measured so far, the cheapest sizes at which every target's
+  // standard error is at most confirm_standard_error tolerances (within the time left). A
+  // confirmation runs in parts, is sized again after each, and stops after one that shows
+  // a clear miss.
+  int64_t confirm_layouts = 0;
+  int64_t confirm_output_layouts = 0;
+  double confirm_standard_error = 0.3;
   int64_t pilot_layouts = 0;  // 0: no pilot
   int max_evaluations = 300;
-  // Bounds the search and the confirmation together: the search stops early enough to
-  // confirm at the rate its evaluations ran. The pilot comes on top.
+  // Bounds the searches and the confirmations together: a search stops early enough to
+  // confirm at the rates measured so far. The pilot comes on top.
   double max_seconds = 300;
   int jobs = 0;
-  // The search stops once every target is within this share of its tolerance on the common
-  // seeds, leaving the rest of the tolerance to sampling error.
+  // A round's search stops once every target is within this share of its tolerance (for
+  // Gauss-Newton, its local model's level, known to within 0.4 tolerances; for NLopt's
+  // methods, on their common layouts, or within those layouts' own standard error), and a
+  // confirmation within it ends the fit, leaving the rest of the tolerance to sampling error.
   double search_margin = 0.5;
-  // When the fresh-seed confirmation is outside search_margin on some target: within 3
-  // tolerances of every target (and with a Gauss-Newton Jacobian), and either meeting every
-  // target or with no room for another round, Gauss-Newton steps on the confirmations
-  // themselves, each confirmed afresh, while the budget has room (trace phase "correct");
-  // otherwise, when it misses a target or the budget has room for a round like the last
-  // (time, evaluations and rounds), the search resumes from the best point with twice the
-  // layouts and half the step, at most this many rounds in all. The report gives the latest
-  // confirmed point, or the latest that met every target when the last one missed.
-  int max_rounds = 3;
+  // A confirmation outside search_margin starts another round from the best point: for
+  // Gauss-Newton the confirmation joins the local model as its most precise measurement; for
+  // NLopt's methods, the round searches new common layouts for the targets shifted by it.
+  // Rounds go on until the budget ends (time, evaluations, or this many rounds). The report
+  // gives the latest confirmed point, or the latest that met every target when the last
+  // one missed.
+  int max_rounds = 10;
   std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
   std::function<void(const ConfirmationRow&)> on_confirmation;  // and after each confirmation
   // Stops the search (solid/formats/cancel.h): the evaluation in flight is dropped, and
@@ -179,10 +201,11 @@ struct TargetResult {
   Target target;
   Estimate predicted;  // on the fresh seeds at the output resolution (the confirmation)
   bool met = false;    // |predicted - target| <= tolerance
-  // The last round searched for target - search_offset on the common seeds: in the first
-  // round, the output resolution's difference from the evaluation resolution's on the same
-  // layouts at the start; from the second on, the confirmation's difference from them at
-  // the round's start.
+  // The search aimed at target - search_offset at the evaluation resolution. Gauss-Newton:
+  // what the output resolution measures more on the same layouts, pooled over round one's
+  // start and the confirmations' pairs. NLopt's methods: in the first round that difference
+  // at the start; from the second on, the confirmation's difference from the round's common
+  // layouts at its start.
   double search_offset = 0;
   std::optional<Estimate> pilot;  // at the output resolution
   bool pilot_agrees = false;      // |pilot - predicted| <= tolerance + the difference's 95% CI
@@ -197,15 +220,21 @@ struct OptimizeReport {
   std::vector<double> best_x;
   std::vector<TargetResult> results;
   bool all_met = false;
-  ProxyMetrics search_metrics;  // of the best point on the common seeds
+  ProxyMetrics search_metrics;  // of the best point's evaluation
   ProxyMetrics confirmation;    // fresh seeds, output resolution
   std::optional<ProxyMetrics> pilot;
   int eval_width = 0, eval_height = 0;
   int evaluations = 0, rounds = 0;
   double seconds = 0;
+  // Why the fit ended (docs/optimize.md, "Stop reasons"): "met" (a confirmation within the
+  // margin of every target), "time", "evaluations" or
+  // "rounds" (that budget was spent), "blocked" (the local model can get no closer within
+  // the bounds), "cancelled"; stop_reason says it in words, history round by round.
+  std::string ending;
   std::string stop_reason;
+  std::vector<std::string> history;
   // Stopped through options.cancel: best and search_metrics are those of the evaluations
-  // done; results compare the search metrics (common seeds) with the targets, and
+  // done; results compare the search metrics with the targets, and
   // confirmation, pilot and blocked_by are empty.
   bool cancelled = false;
   std::vector<TraceRow> trace;

@@ -57,6 +57,8 @@ struct SampleOptions {
   // The mask pass counts areas only (MaskPassOptions::metrics_only): the same metrics,
   // truncation 0; what the optimizer's evaluations use.
   bool metrics_only = false;
+  // Fill SampleReport::image_totals.
+  bool image_totals = false;
   ProgressCallback progress;
   // Stops between layouts (solid/formats/cancel.h): RunSample then returns kCancelled,
   // since metrics of the layouts done so far would depend on thread timing.
@@ -76,6 +78,9 @@ struct SampleReport {
   double mean_attempts = 0, mean_placed = 0, mean_proposals = 0;
   double seconds = 0;
   double sample_ms_per_layout = 0, mask_ms_per_layout = 0;  // thread time per layout
+  // With SampleOptions::image_totals: each usable layout's totals (its index the layout's),
+  // in index order; what the metrics above sum.
+  std::vector<ImageTotals> image_totals;
   nlohmann::json ToJson() const;
 };
 
