@@ -40,7 +40,8 @@ std::vector<double> Solve(std::vector<double> a, std::vector<double> b, size_t p
 }  // namespace
 
 LocalModel FitLocalModel(const std::vector<Observation>& observations, const std::vector<double>& centre,
-                         double radius, const std::vector<double>& prior_jacobian, double prior_sd) {
+                         double radius, const std::vector<double>& prior_jacobian, double prior_sd,
+                         const std::vector<InterceptPrior>& intercept_priors) {
   const size_t n = centre.size(), m = prior_jacobian.size() / std::max<size_t>(1, n);
   // The groups present, group 0 first: each has an intercept.
   std::vector<int> groups = {0};
@@ -58,6 +59,18 @@ LocalModel FitLocalModel(const std::vector<Observation>& observations, const std
     for (size_t j = 0; j < n; ++j) {
       a[(g + j) * p + g + j] += 1 / (prior_sd * prior_sd);
       b[g + j] += prior_jacobian[i * n + j] / (prior_sd * prior_sd);
+    }
+    for (const InterceptPrior& prior : intercept_priors) {
+      const auto k = static_cast<size_t>(std::find(groups.begin(), groups.end(), prior.group) - groups.begin());
+      if (k == g || k == 0 || prior.mean.size() != m || prior.variance.size() != m) continue;
+      // A pseudo-observation of a_k - a_0.
+      const double weight = 1 / std::max(prior.variance[i], 1e-12);
+      a[k * p + k] += weight;
+      a[0] += weight;
+      a[k * p] -= weight;
+      a[k] -= weight;
+      b[k] += weight * prior.mean[i];
+      b[0] -= weight * prior.mean[i];
     }
     for (const Observation& o : observations) {
       if (o.x.size() != n || o.residuals.size() != m || o.variances.size() != m) continue;

@@ -9,10 +9,11 @@
 // is mostly noise where the targets are near. Pooled over every measurement near the point,
 // the slopes and the level average that noise away instead of discarding all but the last.
 //
-// Measurements on the same layouts share their sampling error (and their resolution's
-// offset from the output's), so each such group has an intercept of its own, and only the
-// slopes are shared: a round's common layouts teach the slopes; fresh layouts (confirmations,
-// estimated at the output resolution) teach the level.
+// Measurements that share a bias (one set of layouts' sampling error, or a resolution's
+// offset from the output's) form a group with an intercept of its own, and only the slopes are
+// shared: evaluations at the evaluation resolution teach the slopes, and the level as far as
+// the offset between the resolutions is known; measurements at the output resolution
+// (confirmations) teach the level.
 #pragma once
 
 #include <vector>
@@ -32,12 +33,21 @@ struct LocalModel {
   std::vector<double> jacobian;   // targets x dimensions, row-major, per unit of the cube
 };
 
+// What is known of one group's intercept against group 0's before the fit: a_group - a_0 is
+// about `mean`, with `variance` (per target), as paired layouts measure the offset of one
+// resolution from another.
+struct InterceptPrior {
+  int group = 1;
+  std::vector<double> mean, variance;
+};
+
 // Per target, r = a_group + J (x - centre) by least squares, each observation weighted by the
 // inverse of its variance times exp(-|x - centre|^2 / (2 radius^2)) (the model is local), the
 // slopes drawn toward `prior_jacobian` with a standard deviation of `prior_sd` (so that the
-// fit stays defined where the observations do not span every dimension). Needs an
-// observation of group 0; observations with another number of targets are ignored.
+// fit stays defined where the observations do not span every dimension), and intercepts
+// toward their priors. Observations with another number of targets are ignored.
 LocalModel FitLocalModel(const std::vector<Observation>& observations, const std::vector<double>& centre,
-                         double radius, const std::vector<double>& prior_jacobian, double prior_sd);
+                         double radius, const std::vector<double>& prior_jacobian, double prior_sd,
+                         const std::vector<InterceptPrior>& intercept_priors = {});
 
 }  // namespace solid::optimizer

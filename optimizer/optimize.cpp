@@ -85,6 +85,10 @@ double LayoutCost(int width, int height) {
   return 1 + kPerPixel * width * height;
 }
 
+// How far Gauss-Newton's local model reaches (unit cube): the standard deviation of its
+// Gaussian weights by distance.
+constexpr double kModelRadius = 0.3;
+
 constexpr std::string_view kStationary = "no step within the bounds improves the linear model";
 
 // The local search of "gauss-newton" is ours (Search::GaussNewton); its bounded
@@ -297,15 +301,19 @@ struct Search {
   std::vector<ImageTotals> start_totals, start_output_totals;
   bool noise_from_confirmation = false;
   std::string round_note;  // how the round's search ended
-  // Gauss-Newton's measurements (local_model.h), residuals against the targets: evaluations
-  // at the evaluation resolution, which `offset` carries to the output's when a model is
-  // fitted, and measurements at the output resolution (round one's start, confirmations).
+  // Gauss-Newton's measurements (local_model.h), residuals against the targets: at the output
+  // resolution (round one's start, confirmations: group 0) and at the evaluation resolution
+  // (group 1), whose intercept the offsets below tie to group 0's.
   std::vector<Observation> observations;
-  std::vector<bool> at_evaluation_resolution;  // per observation
-  // Per target, what the output resolution measures more than the evaluation resolution on
-  // the same layouts (metric units), pooled over every pair so far, and their number.
-  std::vector<double> offset;
-  double offset_pairs = 0;
+  // What the output resolution measures more than the evaluation resolution on the same
+  // layouts (per target, metric units), where it was measured (round one's start, each
+  // confirmation) and on how many pairs: it depends on the point (the share of objects too
+  // small to show at the lower resolution), so a model takes the offsets near its centre.
+  struct Offset {
+    std::vector<double> x, value;
+    double pairs = 0;
+  };
+  std::vector<Offset> offsets;
   std::vector<double> jacobian;        // the latest local model's, targets x dimensions
   std::vector<double> design_centre;   // where the latest design of differences was centred
   double trust_radius = 0.3;           // unit cube, carried from round to round
@@ -391,20 +399,42 @@ struct Search {
   }
   void Observe(const std::vector<double>& unit, const ProxyMetrics& metrics, std::vector<double> variances,
                bool at_evaluation) {
-    observations.push_back({unit, Residuals(metrics, options.targets), std::move(variances), 0});
-    at_evaluation_resolution.push_back(at_evaluation);
+    observations.push_back(
+        {unit, Residuals(metrics, options.targets), std::move(variances), at_evaluation && two_phase ? 1 : 0});
   }
   // What the output resolution measures more than the evaluation resolution on `low` and
-  // `high` (matched by index), pooled into `offset`.
-  void PoolOffset(const std::vector<ImageTotals>& low, const std::vector<ImageTotals>& high) {
-    const double pairs = static_cast<double>(high.size());
-    if (pairs < 2) return;
-    for (size_t i = 0; i < options.targets.size(); ++i) {
-      const Metric metric = options.targets[i].metric;
-      const double difference = EstimateMetric(low, high, metric).mean - EstimateMetric(low, {}, metric).mean;
-      offset[i] = (offset[i] * offset_pairs + difference * pairs) / (offset_pairs + pairs);
+  // `high` (matched by index) at `unit`.
+  void AddOffset(const std::vector<double>& unit, const std::vector<ImageTotals>& low,
+                 const std::vector<ImageTotals>& high) {
+    if (high.size() < 2) return;
+    Offset o{unit, {}, static_cast<double>(high.size())};
+    for (const Target& t : options.targets) {
+      o.value.push_back(EstimateMetric(low, high, t.metric).mean - EstimateMetric(low, {}, t.metric).mean);
     }
-    offset_pairs += pairs;
+    offsets.push_back(std::move(o));
+  }
+  // The offsets near `centre`, weighted by their pairs and their distance as the local model
+  // weighs measurements, per target in metric units; and their variance in tolerances
+  // squared: the pairs' own, plus a quarter tolerance squared for how the offset may
+  // differ between where it was measured and the centre.
+  std::pair<std::vector<double>, std::vector<double>> OffsetNear(const std::vector<double>& centre, double radius) const {
+    constexpr double kPlaceAllowance = 0.25;  // tolerances
+    std::vector<double> mean(options.targets.size()), variance(options.targets.size());
+    double weight = 0;
+    for (const Offset& o : offsets) {
+      double distance_sq = 0;
+      for (size_t j = 0; j < centre.size(); ++j) distance_sq += (o.x[j] - centre[j]) * (o.x[j] - centre[j]);
+      const double w = o.pairs * std::exp(-distance_sq / (2 * radius * radius));
+      for (size_t i = 0; i < mean.size(); ++i) mean[i] += w * o.value[i];
+      weight += w;
+    }
+    for (size_t i = 0; i < mean.size(); ++i) {
+      const double tolerance = options.targets[i].tolerance;
+      mean[i] = weight > 0 ? mean[i] / weight : 0;
+      const double pairs_variance = noise[i].difference_variance / (tolerance * tolerance) / std::max(weight, 1e-9);
+      variance[i] = (weight > 0 ? pairs_variance : 1e6) + kPlaceAllowance * kPlaceAllowance;
+    }
+    return {mean, variance};
   }
 
   // The point on fresh layouts, measured in parts, each pairing its first layouts at the
@@ -472,7 +502,7 @@ struct Search {
     }
     UpdateNoise(low, high);
     noise_from_confirmation = true;
-    PoolOffset(low, high);
+    AddOffset(unit, low, high);
     Evaluation e;
     e.metrics = so_far;
     Observe(unit, e.metrics, ResidualVariances(e.metrics), false);
@@ -616,19 +646,18 @@ struct Search {
     return e;
   }
 
-  // The local model at `centre` (local_model.h), the evaluations carried to the output
-  // resolution by the pooled offset.
+  // The local model at `centre` (local_model.h), the evaluations' intercept tied to the
+  // output resolution's by the offsets measured near it.
   LocalModel Fit(const std::vector<double>& centre) const {
-    // How far the model reaches (unit cube), and how far its slopes may stray, in
-    // tolerances per unit, from the latest model's without evidence.
-    constexpr double kModelRadius = 0.3, kPriorSlope = 30;
-    std::vector<Observation> at_output = observations;
-    for (size_t k = 0; k < at_output.size(); ++k) {
-      if (!at_evaluation_resolution[k]) continue;
-      for (size_t i = 0; i < options.targets.size(); ++i) at_output[k].residuals[i] += offset[i] / options.targets[i].tolerance;
-    }
+    // How far its slopes may stray, in tolerances per unit, from the latest model's without
+    // evidence.
+    constexpr double kPriorSlope = 30;
+    const auto [offset, variance] = OffsetNear(centre, kModelRadius);
+    InterceptPrior evaluations{1, {}, variance};
+    // Group 1 measures the residual less the offset.
+    for (size_t i = 0; i < offset.size(); ++i) evaluations.mean.push_back(-offset[i] / options.targets[i].tolerance);
     const std::vector<double> prior = jacobian.empty() ? std::vector<double>(options.targets.size() * dims.size()) : jacobian;
-    return FitLocalModel(at_output, centre, kModelRadius, prior, kPriorSlope);
+    return FitLocalModel(observations, centre, kModelRadius, prior, kPriorSlope, {evaluations});
   }
   // The model's level within the margin of every target, known to within 0.4 tolerances: no
   // step would be worth its evaluation, and a confirmation decides.
@@ -933,7 +962,6 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
   }
   s.two_phase = r.eval_width != options.start.width || r.eval_height != options.start.height;
   s.noise.resize(options.targets.size());
-  s.offset.assign(options.targets.size(), 0.0);
   const std::vector<double> start_unit = s.ToUnit(options.space.Encode(options.start));
   Evaluation confirmation;
   struct Confirmed {
@@ -983,7 +1011,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
           s.Observe(start_unit, at_start.metrics, s.ResidualVariances(s.start_totals), true);
           if (at_output) {
             s.Observe(start_unit, at_output->metrics, s.ResidualVariances(at_output->totals), false);
-            s.PoolOffset(s.start_totals, s.start_output_totals);
+            s.AddOffset(start_unit, s.start_totals, s.start_output_totals);
           }
         }
       } else if (!gauss_newton) {
@@ -1074,7 +1102,8 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
     tr.target = t;
     tr.predicted = MetricOf(r.confirmation, t.metric);
     tr.met = std::abs(tr.predicted.mean - t.value) <= t.tolerance;
-    tr.search_offset = gauss_newton ? s.offset[r.results.size()] : t.value - s.search_targets[r.results.size()].value;
+    tr.search_offset = gauss_newton ? s.OffsetNear(s.best_unit, kModelRadius).first[r.results.size()]
+                                    : t.value - s.search_targets[r.results.size()].value;
     r.all_met = r.all_met && tr.met;
     r.results.push_back(std::move(tr));
   }

@@ -48,6 +48,23 @@ TEST(LocalModel, GroupsShareSlopesNotLevels) {
   EXPECT_NEAR(m.jacobian[1], -3, 1e-7);
 }
 
+// What paired layouts measure of one group's offset ties its intercept to group 0's: with
+// evaluations alone near the centre, the level is theirs less the offset; a measurement of
+// group 0 and the prior then share the say by their variances.
+TEST(LocalModel, InterceptPriorTiesAGroupToTheLevel) {
+  const InterceptPrior offset{1, {3.5}, {1e-8}};
+  const LocalModel tied = FitLocalModel(Plane(1, 5.0), {0.5, 0.5}, 0.3, {0, 0}, 1e6, {offset});
+  EXPECT_NEAR(tied.residuals[0], 1.5, 1e-6);
+  EXPECT_NEAR(tied.jacobian[0], 2, 1e-6);
+  std::vector<Observation> with_level = Plane(1, 5.0);
+  with_level.push_back({{0.5, 0.5}, {2.5}, {0.5}, 0});
+  const LocalModel shared = FitLocalModel(with_level, {0.5, 0.5}, 0.3, {0, 0}, 1e6, {{1, {3.5}, {0.5}}});
+  // The evaluations say 1.5 with a variance of about 0.12 + 0.5, the measurement 2.5 with 0.5.
+  EXPECT_GT(shared.residuals[0], 1.5);
+  EXPECT_LT(shared.residuals[0], 2.5);
+  EXPECT_NEAR(shared.residuals[0], 2.0, 0.1);
+}
+
 // A measurement far from the centre weighs less than one near it, in proportion to
 // exp(-d^2 / (2 radius^2)): two measurements of the level disagree, and the fit lies nearer
 // the near one.
