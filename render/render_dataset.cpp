@@ -31,6 +31,7 @@
 #include "solid/render/sample.h"
 
 #include "solid/formats/workers.h"
+#include "room.h"
 
 namespace solid::render {
 namespace {

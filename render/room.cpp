@@ -1,4 +1,4 @@
-#include "solid/render/room.h"
+#include "room.h"
 
 #include <embree3/rtcore.h>
 
