@@ -399,7 +399,7 @@ Status ClearForRepair(const fs::path& path) {
 }
 
 Status Refuse(const fs::path& path, const std::string& damage) {
-  return CorruptError(fmt::format("{}: not this dataset's shard: {}; solid render --repair re-renders it",
+  return CorruptError(fmt::format("{}: not this dataset's shard: {}; RenderOptions::repair re-renders it",
                                   path.string(), damage));
 }
 
@@ -508,8 +508,9 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
     if (held == 0) {
       SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
     } else if (!options.adopt) {
-      return NotFoundError(fmt::format("{}: no manifest.json, but {} shard file(s): --adopt rebuilds the manifest "
-                                       "from their provenance (when they agree), or render into a new directory",
+      return NotFoundError(fmt::format("{}: no manifest.json, but {} shard file(s): RenderOptions::adopt rebuilds "
+                                       "the manifest from their provenance (when they agree), or render into a new "
+                                       "directory",
                                        options.out.string(), held));
     } else {
       SOLID_ASSIGN_OR_RETURN(const AdoptReport adopted, AdoptManifest(options.out));
@@ -520,7 +521,7 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
   SOLID_ASSIGN_OR_RETURN(Manifest existing, ReadManifest(options.out));
   if (const std::string why = ManifestDifference(existing, manifest); !why.empty()) {
     return AlreadyExistsError(fmt::format("{}: the dataset there was rendered with other settings ({}); render into "
-                                          "a new directory, or repeat the flags it was made with",
+                                          "a new directory, or repeat the settings it was made with",
                                           options.out.string(), why));
   }
 
