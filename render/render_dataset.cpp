@@ -414,6 +414,270 @@ Status ModelsOfShard(const fs::path& path, std::set<std::string>* models) {
       ChecksumPolicy::kSkip);
 }
 
+Status CheckCounts(const RenderOptions& options) {
+  if (options.images < 0) return OptionError("images", "must be >= 0");
+  if (options.shard_size < 1) return OptionError("shard_size", "must be >= 1");
+  if (options.query_shard_models < 1) return OptionError("query_shard_models", "must be >= 1");
+  return Status::Ok();
+}
+
+// Creates the dataset in options.out, or adopts the shards there (options.adopt), and checks
+// that the dataset there is the one `manifest` describes; true when it adopted. Farm
+// processes may race to create the dataset: identical manifests make that harmless. Shards
+// without a manifest are never taken for this render's: their provenance is adopted, or the
+// render refused.
+Result<bool> OpenDataset(const RenderOptions& options, const Manifest& manifest) {
+  bool adopted = false;
+  std::error_code ec;
+  if (!fs::exists(DatasetPaths(options.out).manifest(), ec)) {
+    SOLID_ASSIGN_OR_RETURN(const ShardListing found, ListShards(options.out));
+    const size_t held = found.targets.size() + found.queries.size() + found.unexpected.size();
+    if (held == 0) {
+      SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
+    } else if (!options.adopt) {
+      return NotFoundError(fmt::format("{}: no manifest.json, but {} shard file(s): RenderOptions::adopt rebuilds "
+                                       "the manifest from their provenance (when they agree), or render into a new "
+                                       "directory",
+                                       options.out.string(), held));
+    } else {
+      SOLID_ASSIGN_OR_RETURN(const AdoptReport adoption, AdoptManifest(options.out));
+      if (options.on_note) options.on_note(adoption.Summary(options.out));
+      adopted = true;
+    }
+  }
+  SOLID_ASSIGN_OR_RETURN(Manifest existing, ReadManifest(options.out));
+  if (const std::string why = ManifestDifference(existing, manifest); !why.empty()) {
+    return AlreadyExistsError(fmt::format("{}: the dataset there was rendered with other settings ({}); render into "
+                                          "a new directory, or repeat the settings it was made with",
+                                          options.out.string(), why));
+  }
+  return adopted;
+}
+
+// Target shards first..last; none when last < first.
+struct ShardRange {
+  int64_t first = 0, last = -1;
+};
+
+// The target shards options.shards asks for, every shard of the dataset without it.
+Result<ShardRange> RequestedShards(const RenderOptions& options, const Manifest& manifest) {
+  const int64_t shard_count = manifest.ShardCount();
+  if (!options.shards) return ShardRange{0, shard_count - 1};
+  const auto [first, last] = *options.shards;
+  if (first < 0 || last < first || last >= shard_count) {
+    return OptionError("shards", fmt::format("{}-{}: the dataset has shards 0-{} ({} images of {})", first, last,
+                                            shard_count - 1, manifest.images, manifest.shard_size));
+  }
+  return ShardRange{first, last};
+}
+
+// A target shard to render: missing, or present but damaged (rendered anew in its place).
+struct ShardTask {
+  int64_t shard = 0;
+  bool damaged = false;
+};
+
+// What the steps of one RenderDataset call share.
+struct DatasetRun {
+  DatasetRun(const LayoutSampler& sampler, const RenderOptions& options, const Manifest& manifest)
+      : sampler(sampler), options(options), manifest(manifest), paths(options.out),
+        renderer(sampler, options, manifest) {}
+
+  RenderReport& report() { return renderer.report(); }
+  void Note(const std::string& line) const {
+    if (options.on_note) options.on_note(line);
+  }
+
+  const LayoutSampler& sampler;
+  const RenderOptions& options;
+  const Manifest& manifest;
+  const DatasetPaths paths;
+  Renderer renderer;
+  std::set<std::string> models;  // used by the requested target shards: their query shards are needed
+  bool stopped = false;          // cancelled with something requested left undone
+  bool warned_unlocked = false;
+};
+
+// A present target shard this render keeps: counted, and its models noted for the query shards.
+Status KeepPresentShard(DatasetRun& run, int64_t k) {
+  ++run.report().shards_present;
+  if (run.options.queries) return ModelsOfShard(run.paths.shard(k), &run.models);
+  return Status::Ok();
+}
+
+// The requested target shards that are missing, or damaged when repairing (a damaged one
+// stops the render otherwise); their images are the progress total.
+Result<std::vector<ShardTask>> ShardsToRender(DatasetRun& run, ShardRange requested) {
+  std::vector<ShardTask> todo;
+  int64_t images = 0;
+  for (int64_t k = requested.first; k <= requested.last; ++k) {
+    const Examined e = Examine(run.paths.shard(k), run.manifest, /*query=*/false, k, run.options.repair);
+    if (e.present && e.damage.empty()) {
+      SOLID_RETURN_IF_ERROR(KeepPresentShard(run, k));
+      continue;
+    }
+    if (e.present && !run.options.repair) return Refuse(run.paths.shard(k), e.damage);
+    if (e.present) run.Note(fmt::format("shard {}: {}: re-rendering it", k, e.damage));
+    todo.push_back({k, e.present});
+    images += std::min(run.manifest.shard_size, run.manifest.images - k * run.manifest.shard_size);
+  }
+  run.renderer.SetProgressTotal(images);
+  return todo;
+}
+
+// Renders the shard under its lock; false when another process holds the lock.
+Result<bool> RenderUnderLock(DatasetRun& run, ShardTask task) {
+  const fs::path path = run.paths.shard(task.shard);
+  SOLID_ASSIGN_OR_RETURN(files::FileLock lock, files::FileLock::TryAcquire(path));
+  if (lock.state() == files::FileLock::State::kHeldByOther) return false;
+  if (lock.state() == files::FileLock::State::kUnsupported && !run.warned_unlocked) {
+    run.Note(fmt::format("{}; rendering without locks: two processes given one shard may both render it, and the "
+                         "first to publish wins", lock.unsupported_reason()));
+    run.warned_unlocked = true;
+  }
+  // Published by another process since the listing, or while we waited for its lock.
+  std::error_code exists_ec;
+  if (!task.damaged && fs::exists(path, exists_ec)) {
+    SOLID_RETURN_IF_ERROR(KeepPresentShard(run, task.shard));
+    return true;
+  }
+  if (task.damaged) SOLID_RETURN_IF_ERROR(ClearForRepair(path));
+  const Status rendered = run.renderer.RenderShard(task.shard, task.damaged, &run.models);
+  RenderReport& report = run.report();
+  if (rendered.code() == StatusCode::kCancelled) {
+    report.abandoned_shard = task.shard;  // the writer removed its temporary file
+    run.stopped = true;
+    return true;
+  }
+  if (rendered.code() == StatusCode::kAlreadyExists && !lock.held()) {
+    // No locks here, and another process published it first.
+    SOLID_RETURN_IF_ERROR(KeepPresentShard(run, task.shard));
+    return true;
+  }
+  SOLID_RETURN_IF_ERROR(rendered);
+  ++report.shards_rendered;
+  if (task.damaged) ++report.shards_repaired;
+  return true;
+}
+
+// Renders the shards of `todo` that no other process holds, and returns those that one does.
+Result<std::vector<ShardTask>> RenderUnheldShards(DatasetRun& run, const std::vector<ShardTask>& todo) {
+  std::vector<ShardTask> held_elsewhere;
+  for (const ShardTask& task : todo) {
+    if (run.stopped || CancelRequested(run.options.cancel)) {
+      run.stopped = true;
+      break;
+    }
+    SOLID_ASSIGN_OR_RETURN(const bool done, RenderUnderLock(run, task));
+    if (!done) {
+      run.Note(fmt::format("shard {}: another process is rendering it ({} is locked); rendering the others first",
+                           task.shard, files::LockPathFor(run.paths.shard(task.shard)).string()));
+      held_elsewhere.push_back(task);
+    }
+  }
+  return held_elsewhere;
+}
+
+// What other processes hold: waits until they publish, or die and leave the shard to us.
+Status AwaitShardsHeldElsewhere(DatasetRun& run, const std::vector<ShardTask>& held_elsewhere) {
+  bool waiting_noted = false;
+  for (size_t i = 0; i < held_elsewhere.size() && !run.stopped;) {
+    if (CancelRequested(run.options.cancel)) {
+      run.stopped = true;
+      break;
+    }
+    const ShardTask task = held_elsewhere[i];
+    const int64_t present_before = run.report().shards_present;
+    SOLID_ASSIGN_OR_RETURN(const bool done, RenderUnderLock(run, task));
+    if (done) {
+      if (run.report().shards_present > present_before) {
+        ++run.report().shards_by_others;
+        run.Note(fmt::format("shard {}: published by the other process", task.shard));
+      }
+      ++i;
+      continue;
+    }
+    if (!waiting_noted) {
+      run.Note(fmt::format("waiting for {} shard(s) that other processes are rendering", held_elsewhere.size() - i));
+      waiting_noted = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return Status::Ok();
+}
+
+// The query shards that hold the models of the requested target shards.
+Result<std::set<int64_t>> QueryShardsOfModels(const DatasetRun& run) {
+  const auto& catalog = run.sampler.library()->models();
+  std::set<int64_t> query_shards;
+  for (const std::string& key : run.models) {
+    const auto it = std::lower_bound(catalog.begin(), catalog.end(), key,
+                                     [](const AssetEntry& e, const std::string& k) { return e.key < k; });
+    if (it == catalog.end() || it->key != key) {
+      return CorruptError(fmt::format("{}: model {} is in the shards but not in the asset catalog",
+                                      run.options.out.string(), key));
+    }
+    query_shards.insert(static_cast<int64_t>(it - catalog.begin()) / run.options.query_shard_models);
+  }
+  return query_shards;
+}
+
+// The query shards the requested target shards need that are missing (or damaged, when
+// repairing); a stop leaves the rest for a rerun.
+Status RenderQueryShards(DatasetRun& run) {
+  SOLID_ASSIGN_OR_RETURN(const std::set<int64_t> query_shards, QueryShardsOfModels(run));
+  RenderReport& report = run.report();
+  for (int64_t q : query_shards) {
+    const fs::path path = run.paths.query_shard(q);
+    const Examined e = Examine(path, run.manifest, /*query=*/true, q, run.options.repair);
+    if (e.present && e.damage.empty()) {
+      ++report.query_shards_present;
+      continue;
+    }
+    if (e.present && !run.options.repair) return Refuse(path, e.damage);
+    if (CancelRequested(run.options.cancel)) {
+      run.stopped = true;
+      break;
+    }
+    if (e.present) {
+      run.Note(fmt::format("query shard {}: {}: re-rendering it", q, e.damage));
+      SOLID_RETURN_IF_ERROR(ClearForRepair(path));
+    }
+    const Status written = run.renderer.RenderQueryShard(q, e.present);
+    if (written.code() == StatusCode::kCancelled) {
+      run.stopped = true;
+      break;
+    }
+    if (written.code() == StatusCode::kAlreadyExists) {
+      ++report.query_shards_present;  // another process of the farm published the same bytes first
+      continue;
+    }
+    SOLID_RETURN_IF_ERROR(written);
+    ++report.query_shards_rendered;
+    if (e.present) ++report.query_shards_repaired;
+  }
+  return Status::Ok();
+}
+
+// Stopped before the end: the requested shards that are missing. The index waits for the
+// run that completes the dataset.
+void ReportStop(DatasetRun& run, ShardRange requested) {
+  for (int64_t k = requested.first; k <= requested.last; ++k) {
+    std::error_code missing_ec;
+    if (!fs::exists(run.paths.shard(k), missing_ec)) run.report().shards_missing.push_back(k);
+  }
+  run.report().cancelled = true;
+}
+
+// The index, once every target shard of the dataset is there (this process's or others').
+Status IndexWhenComplete(DatasetRun& run) {
+  SOLID_ASSIGN_OR_RETURN(const ShardListing listing, ListShards(run.options.out));
+  if (static_cast<int64_t>(listing.targets.size()) != run.manifest.ShardCount()) return Status::Ok();
+  SOLID_RETURN_IF_ERROR(BuildIndex(run.options.out).status());
+  run.report().index_built = true;
+  return Status::Ok();
+}
+
 }  // namespace
 
 nlohmann::json StageTimes::ToJson() const {
@@ -488,203 +752,23 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
 
 Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options) {
   const auto start = Clock::now();
-  bool report_adopted = false;
-  if (options.images < 0) return OptionError("images", "must be >= 0");
-  if (options.shard_size < 1) return OptionError("shard_size", "must be >= 1");
-  if (options.query_shard_models < 1) return OptionError("query_shard_models", "must be >= 1");
+  SOLID_RETURN_IF_ERROR(CheckCounts(options));
   const Manifest manifest = RenderManifest(sampler, options);
-  const DatasetPaths paths(options.out);
-
-  auto note = [&](const std::string& line) {
-    if (options.on_note) options.on_note(line);
-  };
-  // Farm processes may race to create the dataset: identical manifests make that harmless.
-  // Shards without a manifest are never taken for this render's: their provenance is
-  // adopted, or the render refused.
-  std::error_code ec;
-  if (!fs::exists(paths.manifest(), ec)) {
-    SOLID_ASSIGN_OR_RETURN(const ShardListing found, ListShards(options.out));
-    const size_t held = found.targets.size() + found.queries.size() + found.unexpected.size();
-    if (held == 0) {
-      SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
-    } else if (!options.adopt) {
-      return NotFoundError(fmt::format("{}: no manifest.json, but {} shard file(s): RenderOptions::adopt rebuilds "
-                                       "the manifest from their provenance (when they agree), or render into a new "
-                                       "directory",
-                                       options.out.string(), held));
-    } else {
-      SOLID_ASSIGN_OR_RETURN(const AdoptReport adopted, AdoptManifest(options.out));
-      note(adopted.Summary(options.out));
-      report_adopted = true;
-    }
-  }
-  SOLID_ASSIGN_OR_RETURN(Manifest existing, ReadManifest(options.out));
-  if (const std::string why = ManifestDifference(existing, manifest); !why.empty()) {
-    return AlreadyExistsError(fmt::format("{}: the dataset there was rendered with other settings ({}); render into "
-                                          "a new directory, or repeat the settings it was made with",
-                                          options.out.string(), why));
-  }
-
-  const int64_t shard_count = manifest.ShardCount();
-  int64_t first = 0, last = shard_count - 1;
-  if (options.shards) {
-    std::tie(first, last) = *options.shards;
-    if (first < 0 || last < first || last >= shard_count) {
-      return OptionError("shards", fmt::format("{}-{}: the dataset has shards 0-{} ({} images of {})", first,
-                                              last, shard_count - 1, manifest.images, manifest.shard_size));
-    }
-  }
-
-  Renderer renderer(sampler, options, manifest);
-  RenderReport& report = renderer.report();
-  report.adopted = report_adopted;
-  report.shards_requested = shard_count == 0 ? 0 : last - first + 1;
-  std::vector<std::pair<int64_t, bool>> todo;  // (shard, replace)
-  bool warned_unlocked = false, waiting_noted = false;
-  bool stopped = false;  // cancelled with something requested left undone
-  std::set<std::string> models;
-  int64_t todo_images = 0;
-  for (int64_t k = first; k <= last && shard_count > 0; ++k) {
-    const Examined e = Examine(paths.shard(k), manifest, /*query=*/false, k, options.repair);
-    if (e.present && e.damage.empty()) {
-      ++report.shards_present;
-      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
-      continue;
-    }
-    if (e.present && !options.repair) return Refuse(paths.shard(k), e.damage);
-    if (e.present) note(fmt::format("shard {}: {}: re-rendering it", k, e.damage));
-    todo.emplace_back(k, e.present);
-    todo_images += std::min(manifest.shard_size, manifest.images - k * manifest.shard_size);
-  }
-  renderer.SetProgressTotal(todo_images);
-  // Renders shard k under its lock; false when another process holds the lock.
-  auto render_locked = [&](int64_t k, bool damaged) -> Result<bool> {
-    SOLID_ASSIGN_OR_RETURN(files::FileLock lock, files::FileLock::TryAcquire(paths.shard(k)));
-    if (lock.state() == files::FileLock::State::kHeldByOther) return false;
-    if (lock.state() == files::FileLock::State::kUnsupported && !warned_unlocked) {
-      note(fmt::format("{}; rendering without locks: two processes given one shard may both render it, and the "
-                       "first to publish wins", lock.unsupported_reason()));
-      warned_unlocked = true;
-    }
-    // Published by another process since the listing above, or while we waited for its lock.
-    std::error_code exists_ec;
-    if (!damaged && fs::exists(paths.shard(k), exists_ec)) {
-      ++report.shards_present;
-      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
-      return true;
-    }
-    if (damaged) SOLID_RETURN_IF_ERROR(ClearForRepair(paths.shard(k)));
-    const Status rendered = renderer.RenderShard(k, damaged, &models);
-    if (rendered.code() == StatusCode::kCancelled) {
-      report.abandoned_shard = k;  // the writer removed its temporary file
-      stopped = true;
-      return true;
-    }
-    if (rendered.code() == StatusCode::kAlreadyExists && !lock.held()) {
-      ++report.shards_present;  // no locks here, and another process published it first
-      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
-      return true;
-    }
-    SOLID_RETURN_IF_ERROR(rendered);
-    ++report.shards_rendered;
-    if (damaged) ++report.shards_repaired;
-    return true;
-  };
-  std::vector<std::pair<int64_t, bool>> held_elsewhere;
-  for (const auto& [k, damaged] : todo) {
-    if (stopped || CancelRequested(options.cancel)) {
-      stopped = true;
-      break;
-    }
-    SOLID_ASSIGN_OR_RETURN(const bool done, render_locked(k, damaged));
-    if (!done) {
-      note(fmt::format("shard {}: another process is rendering it ({} is locked); rendering the others first", k,
-                       files::LockPathFor(paths.shard(k)).string()));
-      held_elsewhere.emplace_back(k, damaged);
-    }
-  }
-  // What other processes hold: wait until they publish, or die and leave the shard to us.
-  for (size_t i = 0; i < held_elsewhere.size() && !stopped;) {
-    if (CancelRequested(options.cancel)) {
-      stopped = true;
-      break;
-    }
-    const auto [k, damaged] = held_elsewhere[i];
-    const int64_t present_before = report.shards_present;
-    SOLID_ASSIGN_OR_RETURN(const bool done, render_locked(k, damaged));
-    if (done) {
-      if (report.shards_present > present_before) {
-        ++report.shards_by_others;
-        note(fmt::format("shard {}: published by the other process", k));
-      }
-      ++i;
-      continue;
-    }
-    if (!waiting_noted) {
-      note(fmt::format("waiting for {} shard(s) that other processes are rendering", held_elsewhere.size() - i));
-      waiting_noted = true;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-
-  if (options.queries && !stopped) {
-    const auto& catalog = sampler.library()->models();
-    std::set<int64_t> query_shards;
-    for (const std::string& key : models) {
-      const auto it = std::lower_bound(catalog.begin(), catalog.end(), key,
-                                       [](const AssetEntry& e, const std::string& k) { return e.key < k; });
-      if (it == catalog.end() || it->key != key) {
-        return CorruptError(fmt::format("{}: model {} is in the shards but not in the asset catalog", options.out.string(),
-                                        key));
-      }
-      query_shards.insert(static_cast<int64_t>(it - catalog.begin()) / options.query_shard_models);
-    }
-    for (int64_t q : query_shards) {
-      const Examined e = Examine(paths.query_shard(q), manifest, /*query=*/true, q, options.repair);
-      if (e.present && e.damage.empty()) {
-        ++report.query_shards_present;
-        continue;
-      }
-      if (e.present && !options.repair) return Refuse(paths.query_shard(q), e.damage);
-      if (CancelRequested(options.cancel)) {
-        stopped = true;
-        break;
-      }
-      if (e.present) {
-        note(fmt::format("query shard {}: {}: re-rendering it", q, e.damage));
-        SOLID_RETURN_IF_ERROR(ClearForRepair(paths.query_shard(q)));
-      }
-      const Status written = renderer.RenderQueryShard(q, e.present);
-      if (written.code() == StatusCode::kCancelled) {
-        stopped = true;
-        break;
-      }
-      if (written.code() == StatusCode::kAlreadyExists) {
-        ++report.query_shards_present;  // another process of the farm published the same bytes first
-        continue;
-      }
-      SOLID_RETURN_IF_ERROR(written);
-      ++report.query_shards_rendered;
-      if (e.present) ++report.query_shards_repaired;
-    }
-  }
-
-  // A stop that came during the last shard, which was worth finishing: no index is started.
-  if (stopped || CancelRequested(options.cancel)) {
-    for (int64_t k = first; k <= last && shard_count > 0; ++k) {
-      std::error_code missing_ec;
-      if (!fs::exists(paths.shard(k), missing_ec)) report.shards_missing.push_back(k);
-    }
-    // Stopped before the end; the index waits for the run that completes the dataset.
-    report.cancelled = true;
-    report.seconds = MillisecondsSince(start) / 1000;
-    report.peak_rss_bytes = PeakRssBytes();
-    return report;
-  }
-  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(options.out));
-  if (static_cast<int64_t>(listing.targets.size()) == shard_count) {
-    SOLID_ASSIGN_OR_RETURN(IndexReport index, BuildIndex(options.out));
-    report.index_built = true;
+  SOLID_ASSIGN_OR_RETURN(const bool adopted, OpenDataset(options, manifest));
+  SOLID_ASSIGN_OR_RETURN(const ShardRange requested, RequestedShards(options, manifest));
+  DatasetRun run(sampler, options, manifest);
+  RenderReport& report = run.report();
+  report.adopted = adopted;
+  report.shards_requested = requested.last - requested.first + 1;
+  SOLID_ASSIGN_OR_RETURN(const std::vector<ShardTask> todo, ShardsToRender(run, requested));
+  SOLID_ASSIGN_OR_RETURN(const std::vector<ShardTask> held_elsewhere, RenderUnheldShards(run, todo));
+  SOLID_RETURN_IF_ERROR(AwaitShardsHeldElsewhere(run, held_elsewhere));
+  if (options.queries && !run.stopped) SOLID_RETURN_IF_ERROR(RenderQueryShards(run));
+  // A stop that came during the last shard, which was worth finishing, starts no index either.
+  if (run.stopped || CancelRequested(options.cancel)) {
+    ReportStop(run, requested);
+  } else {
+    SOLID_RETURN_IF_ERROR(IndexWhenComplete(run));
   }
   report.seconds = MillisecondsSince(start) / 1000;
   report.peak_rss_bytes = PeakRssBytes();
