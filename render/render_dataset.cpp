@@ -120,6 +120,36 @@ void AddStages(StageTimes* total, const StageTimes& s) {
   total->query_views += s.query_views;
 }
 
+// What a shard's images come to before the shard is published.
+struct ShardContent {
+  std::vector<std::string> failures;                 // of the images left out
+  nlohmann::json lights = nlohmann::json::object();  // image id -> its light rig
+  StageTimes stages;
+  int64_t images = 0, instances = 0;
+};
+
+// Image `id` into its shard, or among the shard's failures.
+Status AddToShard(ShardWriter& writer, int64_t id, RenderedImage& image, ShardContent* content,
+                  std::set<std::string>* models) {
+  AddStages(&content->stages, image.stages);
+  if (!image.failure.empty()) {
+    content->failures.push_back(image.failure);
+    return Status::Ok();
+  }
+  const auto start = Clock::now();
+  content->lights[std::to_string(id)] = std::move(image.lights);
+  Status status = writer.AddImage(image.image);
+  for (const InstanceRecord& instance : image.instances) {
+    if (!status.ok()) break;
+    status = writer.AddInstance(instance);
+    models->insert(instance.model_key);
+  }
+  content->stages.writing += MillisecondsSince(start);
+  ++content->images;
+  content->instances += static_cast<int64_t>(image.instances.size());
+  return status;
+}
+
 class Renderer {
  public:
   Renderer(const LayoutSampler& sampler, const RenderOptions& options, const Manifest& manifest)
@@ -162,19 +192,14 @@ class Renderer {
     BackgroundWorkers pool(jobs, worker);
 
     Status status;
-    std::vector<std::string> failures;
-    nlohmann::json lights = nlohmann::json::object();  // image id -> its light rig
-    StageTimes stages;
+    ShardContent content;  // the report's only once the shard is published
     const auto shard_start = Clock::now();
-    int64_t images = 0, instances = 0;  // the report's only once the shard is published
     bool finishing = false;  // cancelled, but the rest of the shard is worth its time
     for (; written < end && status.ok(); ++written) {
       if (!finishing && CancelRequested(options_.cancel)) {
-        const int64_t done = written - first;
-        const double per_image_s = done > 0 ? MillisecondsSince(shard_start) / 1000 / done : 0;
-        finishing = done > 0 && per_image_s * (end - written) <= options_.finish_shard_seconds;
+        finishing = WorthFinishing(written - first, end - written, shard_start);
         if (!finishing) {
-          status = CancelledError(fmt::format("stopped after {} of its {} images", done, end - first));
+          status = CancelledError(fmt::format("stopped after {} of its {} images", written - first, end - first));
           break;
         }
       }
@@ -190,23 +215,7 @@ class Renderer {
         status = image.error;
         break;
       }
-      AddStages(&stages, image.stages);
-      if (!image.failure.empty()) {
-        failures.push_back(image.failure);
-        Progress();
-        continue;
-      }
-      const auto start = Clock::now();
-      lights[std::to_string(written)] = std::move(image.lights);
-      status = writer.AddImage(image.image);
-      for (const InstanceRecord& instance : image.instances) {
-        if (!status.ok()) break;
-        status = writer.AddInstance(instance);
-        models->insert(instance.model_key);
-      }
-      stages.writing += MillisecondsSince(start);
-      ++images;
-      instances += static_cast<int64_t>(image.instances.size());
+      status = AddToShard(writer, written, image, &content, models);
       Progress();
     }
     {
@@ -216,21 +225,7 @@ class Renderer {
     changed.notify_all();
     pool.Join();
     SOLID_RETURN_IF_ERROR(status.WithContext(paths_.shard(shard).string()));
-
-    report_.failed_images += static_cast<int64_t>(failures.size());
-    for (const std::string& f : failures) {
-      if (report_.failures.size() < 5) report_.failures.push_back(f);
-    }
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("failed_images", nlohmann::json(failures).dump()));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("stage_ms", stages.ToJson().dump()));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("lights", lights.dump()));
-    const auto start = Clock::now();
-    SOLID_RETURN_IF_ERROR(writer.Commit());
-    stages.writing += MillisecondsSince(start);
-    AddStages(&report_.stages, stages);
-    report_.images += images;
-    report_.instances += instances;
-    return Status::Ok();
+    return Publish(writer, content);
   }
 
   // Every model of catalog range Q, in catalog order, rendered in parallel.
@@ -238,11 +233,6 @@ class Renderer {
     const auto& models = sampler_.library()->models();
     const size_t first = static_cast<size_t>(q * options_.query_shard_models);
     const size_t end = std::min(models.size(), first + static_cast<size_t>(options_.query_shard_models));
-    struct ModelViews {
-      QueryModelRecord model;
-      std::vector<QueryViewRecord> views;
-      Status error;
-    };
     std::vector<ModelViews> rendered(end - first);
     std::atomic<size_t> next{first};
     std::atomic<bool> cancelled{false};
@@ -252,46 +242,7 @@ class Renderer {
           cancelled = true;
           return;
         }
-        ModelViews& out = rendered[i - first];
-        out.model.model_key = models[i].key;
-        Result<std::shared_ptr<const LoadedAsset>> asset = sampler_.library()->Model(i);
-        if (!asset.ok()) {
-          out.model.failure = asset.status().ToString();
-          continue;
-        }
-        // The model's own stream: its views are the same whichever images use it.
-        const uint64_t seed = MixSeed(options_.seed, Xxh64(models[i].key));
-        QueryViewOptions view_options = options_.query_views;
-        view_options.threads = 1;  // models run in parallel instead
-        Result<QueryViewsResult> views = RenderQueryViews(*asset, seed, view_options, textures_);
-        if (!views.ok()) {
-          out.model.failure = views.status().ToString();
-          continue;
-        }
-        if (!views->failed.empty()) {
-          out.model.failure = fmt::format("the model covers no pixel at azimuth(s) {} deg", fmt::join(views->failed, ", "));
-        }
-        for (size_t v = 0; v < views->views.size(); ++v) {
-          QueryView& view = views->views[v];
-          QueryViewRecord record;
-          record.model_key = models[i].key;
-          record.view_index = static_cast<int32_t>(v);
-          record.azimuth = view.azimuth_deg * std::numbers::pi / 180;
-          record.elevation = view.elevation_deg * std::numbers::pi / 180;
-          record.width = view.image.width;
-          record.height = view.image.height;
-          record.format = options_.format;
-          // Views are cropped to the object: its box is the whole stored image.
-          record.box = {0, 0, view.image.width, view.image.height};
-          Result<std::vector<uint8_t>> encoded = EncodeImage(view.image, options_.format, options_.quality);
-          if (!encoded.ok()) {
-            out.error = encoded.status().WithContext(fmt::format("{} view {}", models[i].key, v));
-            break;
-          }
-          record.image = std::move(encoded).value();
-          out.views.push_back(std::move(record));
-        }
-        out.model.view_count = static_cast<int32_t>(out.views.size());
+        rendered[i - first] = RenderModelViews(i);
       }
     };
     const auto start = Clock::now();
@@ -318,6 +269,83 @@ class Renderer {
   RenderReport& report() { return report_; }
 
  private:
+  struct ModelViews {
+    QueryModelRecord model;
+    std::vector<QueryViewRecord> views;
+    Status error;
+  };
+
+  // The query views of catalog model i, encoded; a model without them records why.
+  ModelViews RenderModelViews(size_t i) {
+    const AssetEntry& entry = sampler_.library()->models()[i];
+    ModelViews out;
+    out.model.model_key = entry.key;
+    Result<std::shared_ptr<const LoadedAsset>> asset = sampler_.library()->Model(i);
+    if (!asset.ok()) {
+      out.model.failure = asset.status().ToString();
+      return out;
+    }
+    // The model's own stream: its views are the same whichever images use it.
+    const uint64_t seed = MixSeed(options_.seed, Xxh64(entry.key));
+    QueryViewOptions view_options = options_.query_views;
+    view_options.threads = 1;  // models run in parallel instead
+    Result<QueryViewsResult> views = RenderQueryViews(*asset, seed, view_options, textures_);
+    if (!views.ok()) {
+      out.model.failure = views.status().ToString();
+      return out;
+    }
+    if (!views->failed.empty()) {
+      out.model.failure = fmt::format("the model covers no pixel at azimuth(s) {} deg", fmt::join(views->failed, ", "));
+    }
+    for (size_t v = 0; v < views->views.size(); ++v) {
+      QueryView& view = views->views[v];
+      QueryViewRecord record;
+      record.model_key = entry.key;
+      record.view_index = static_cast<int32_t>(v);
+      record.azimuth = view.azimuth_deg * std::numbers::pi / 180;
+      record.elevation = view.elevation_deg * std::numbers::pi / 180;
+      record.width = view.image.width;
+      record.height = view.image.height;
+      record.format = options_.format;
+      // Views are cropped to the object: its box is the whole stored image.
+      record.box = {0, 0, view.image.width, view.image.height};
+      Result<std::vector<uint8_t>> encoded = EncodeImage(view.image, options_.format, options_.quality);
+      if (!encoded.ok()) {
+        out.error = encoded.status().WithContext(fmt::format("{} view {}", entry.key, v));
+        break;
+      }
+      record.image = std::move(encoded).value();
+      out.views.push_back(std::move(record));
+    }
+    out.model.view_count = static_cast<int32_t>(out.views.size());
+    return out;
+  }
+
+  // Cancelled after `done` images of a shard, with `left` to go: they are worth finishing
+  // when they should take at most finish_shard_seconds at the shard's rate so far.
+  bool WorthFinishing(int64_t done, int64_t left, Clock::time_point shard_start) const {
+    const double per_image_s = done > 0 ? MillisecondsSince(shard_start) / 1000 / done : 0;
+    return done > 0 && per_image_s * left <= options_.finish_shard_seconds;
+  }
+
+  // The shard's metadata, then the shard; its content counts in the report from then on.
+  Status Publish(ShardWriter& writer, ShardContent& content) {
+    report_.failed_images += static_cast<int64_t>(content.failures.size());
+    for (const std::string& f : content.failures) {
+      if (report_.failures.size() < 5) report_.failures.push_back(f);
+    }
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("failed_images", nlohmann::json(content.failures).dump()));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("stage_ms", content.stages.ToJson().dump()));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("lights", content.lights.dump()));
+    const auto start = Clock::now();
+    SOLID_RETURN_IF_ERROR(writer.Commit());
+    content.stages.writing += MillisecondsSince(start);
+    AddStages(&report_.stages, content.stages);
+    report_.images += content.images;
+    report_.instances += content.instances;
+    return Status::Ok();
+  }
+
   void Progress() {
     ++progress_done_;
     if (options_.progress) options_.progress(progress_done_, progress_total_);
