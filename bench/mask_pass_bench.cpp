@@ -30,8 +30,9 @@
 #include "solid/render/layout.h"
 #include "solid/render/mask_pass.h"
 #include "solid/render/params.h"
-#include "solid/render/room.h"
 #include "solid/render/sample.h"
+
+#include "room.h"
 
 namespace {
 

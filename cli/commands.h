@@ -59,9 +59,14 @@ std::string Ranges(const std::vector<int64_t>& sorted);
 // A command's options-struct fields and the flags that set them, e.g. {"images", "--images"}.
 using FlagNames = std::vector<std::pair<std::string_view, std::string_view>>;
 
+// Library text says what remedies a problem in library terms: the call that does it
+// ("adopting the shards (AdoptManifest)") or the options field ("RenderOptions::repair
+// re-renders it"). For people at a shell each becomes its command ("solid index --adopt").
+std::string InCommandTerms(std::string text);
+
 // Prints "solid: <message>" on stderr and returns the exit code for the status. A status
 // about an option field (Status::ForOption) that `flags` names is printed with the flag
-// in place of the field.
+// in place of the field; remedies are named as commands (InCommandTerms).
 int Fail(const Status& status, const FlagNames& flags = {});
 
 // `flags` and the flags of AddParamsFlags (the fields of render::ParamsSource).

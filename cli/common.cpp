@@ -96,6 +96,23 @@ std::string Ranges(const std::vector<int64_t>& sorted) {
   return Ranges(ranges);
 }
 
+std::string InCommandTerms(std::string text) {
+  static constexpr std::pair<std::string_view, std::string_view> kCommands[] = {
+      {"AdoptManifest", "solid index --adopt"},
+      {"BuildIndex", "solid index"},
+      {"InspectReport::ToJson", "solid inspect --json"},
+      {"RenderOptions::adopt", "solid render --adopt"},
+      {"RenderOptions::repair", "solid render --repair"},
+      {"convert::Convert", "solid convert"},
+  };
+  for (const auto& [library, command] : kCommands) {
+    for (size_t at = text.find(library); at != std::string::npos; at = text.find(library, at + command.size())) {
+      text.replace(at, library.size(), command);
+    }
+  }
+  return text;
+}
+
 int Fail(const Status& status, const FlagNames& flags) {
   std::string message = status.message();
   for (const auto& [field, flag] : flags) {
@@ -105,7 +122,7 @@ int Fail(const Status& status, const FlagNames& flags) {
       message.replace(at, prefix.size(), std::string(flag) + ": ");
     }
   }
-  fmt::print(stderr, "solid: {}\n", message);
+  fmt::print(stderr, "solid: {}\n", InCommandTerms(std::move(message)));
   return status.code() == StatusCode::kCancelled ? StopExitCode() : ExitCodeFor(status);
 }
 

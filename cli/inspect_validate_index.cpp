@@ -21,7 +21,7 @@ Command AddInspect(CLI::App& app) {
   return [options, json] {
     Result<InspectReport> report = Inspect(*options);
     if (!report.ok()) return Fail(report.status(), {{"path", "PATH"}});
-    std::cout << (*json ? report->ToJson().dump(2) + "\n" : report->ToText());
+    std::cout << (*json ? report->ToJson().dump(2) + "\n" : InCommandTerms(report->ToText()));
     return int{kExitOk};
   };
 }
@@ -44,7 +44,7 @@ Command AddValidate(CLI::App& app) {
       return Validate(*options);
     }();
     if (!report.ok()) return Fail(report.status(), {{"path", "PATH"}, {"max_problems", "--max-problems"}});
-    std::cout << (flags->first ? report->ToJson().dump(2) + "\n" : report->ToText());
+    std::cout << (flags->first ? report->ToJson().dump(2) + "\n" : InCommandTerms(report->ToText()));
     return int{report->ok() ? kExitOk : kExitProblems};
   };
 }
@@ -63,8 +63,8 @@ Command AddIndex(CLI::App& app) {
       return Index(*options);
     }();
     if (!report.ok()) return Fail(report.status(), {{"dataset", "DATASET"}});
-    if (!report->adopted.empty()) fmt::print(stderr, "solid: {}\n", report->adopted);
-    for (const Status& s : report->skipped) fmt::print(stderr, "solid: skipped: {}\n", s.message());
+    if (!report->adopted.empty()) fmt::print(stderr, "solid: {}\n", InCommandTerms(report->adopted));
+    for (const Status& s : report->skipped) fmt::print(stderr, "solid: skipped: {}\n", InCommandTerms(s.message()));
     if (!report->missing_shards.empty()) {
       fmt::print(stderr, "solid: {}: shards {} are not there yet (not rendered, or being rendered): the index covers "
                          "the complete shards only; run solid index again once they are\n",

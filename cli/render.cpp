@@ -65,7 +65,7 @@ int Run(RenderFlags& f) {
     fmt::print(stderr, "solid: shards {}-{} (from {})\n", options.shards->first, options.shards->second, shard_source);
   }
   options.cancel = InstallStopHandlers();
-  options.on_note = [](const std::string& line) { fmt::print(stderr, "solid: {}\n", line); };
+  options.on_note = [](const std::string& line) { fmt::print(stderr, "solid: {}\n", InCommandTerms(line)); };
   Result<render::RenderCommandReport> report = [&] {
     ProgressLine progress("render", "images");
     options.progress = progress.Callback();

@@ -330,126 +330,156 @@ void RemoveStaleTempsUnder(const fs::path& out) {
   for (const fs::path& f : finals) files::RemoveStaleTemps(f);
 }
 
-// Runs the jobs on options.jobs threads; the calling thread owns the catalog.
-Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const ConvertOptions& options) {
-  auto start = std::chrono::steady_clock::now();
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) return IoError(fmt::format("{}: cannot create the output directory: {}", out.string(), ec.message()));
-  RemoveStaleTempsUnder(out);
-  ConvertReport report;
-  report.catalog = out / "catalog.sqlite";
-  SOLID_ASSIGN_OR_RETURN(Catalog catalog, Catalog::OpenForWriting(report.catalog));
-  SOLID_ASSIGN_OR_RETURN(std::vector<CatalogEntry> existing_rows, catalog.All());
-  std::map<std::string, CatalogEntry> existing;
-  for (CatalogEntry& e : existing_rows) existing.emplace(e.key, std::move(e));
+// The catalog's rows by key.
+Result<std::map<std::string, CatalogEntry>> RowsByKey(Catalog& catalog) {
+  SOLID_ASSIGN_OR_RETURN(std::vector<CatalogEntry> rows, catalog.All());
+  std::map<std::string, CatalogEntry> by_key;
+  for (CatalogEntry& e : rows) by_key.emplace(e.key, std::move(e));
+  return by_key;
+}
 
-  if (options.limit >= 0 && static_cast<int64_t>(jobs.size()) > options.limit) jobs.resize(static_cast<size_t>(options.limit));
-  report.assets = static_cast<int64_t>(jobs.size());
-  const uint64_t options_hash = Xxh64(OptionsIdentity(options).dump());
-  const std::string version(ConverterVersion());
+// What every job of one run is converted with and compared against.
+struct JobContext {
+  fs::path out;
+  const ConvertOptions& options;
+  std::map<std::string, CatalogEntry> existing;  // the catalog's rows before the run
+  uint64_t options_hash = 0;                     // of OptionsIdentity
+  std::string version;                           // ConverterVersion()
+};
 
-  struct Finished {
-    std::optional<CatalogEntry> entry;  // empty when up to date
-    ItemOutcome outcome;
-    // The output directory refused a write: no fault of the asset, so no catalog row (a
-    // "failed" row would keep a rerun from converting it); the batch stops.
-    Status output_error;
+// What converting one job came to.
+struct Finished {
+  std::optional<CatalogEntry> entry;  // empty when up to date
+  ItemOutcome outcome;
+  // The output directory refused a write: no fault of the asset, so no catalog row (a
+  // "failed" row would keep a rerun from converting it); the batch stops.
+  Status output_error;
+};
+
+// The job's catalog row as far as the job itself says: what it is, and what converts it.
+CatalogEntry RowOfJob(const Job& job, const JobContext& context) {
+  CatalogEntry e;
+  e.key = job.key;
+  e.kind = job.kind;
+  e.source = job.source;
+  e.converter_version = context.version;
+  e.options_hash = context.options_hash;
+  for (const fs::path& p : job.inputs) e.input_files.push_back(fs::relative(p, job.input_root).generic_string());
+  return e;
+}
+
+// The earlier run's row of this asset stands: the same inputs (row.input_hash), converter and
+// options, and either its GLB intact or a failure that is not to be retried.
+bool UpToDate(const CatalogEntry& row, const JobContext& context) {
+  const auto it = context.existing.find(row.key);
+  if (it == context.existing.end()) return false;
+  const CatalogEntry& old = it->second;
+  const bool same = old.input_hash == row.input_hash && old.converter_version == context.version &&
+                    old.options_hash == context.options_hash;
+  bool output_intact = false;
+  if (same && old.status != AssetStatus::kFailed && old.file && old.output_xxh64) {
+    Result<files::FileDigest> d = files::DigestFile(context.out / *old.file);
+    output_intact = d.ok() && d->xxh64 == *old.output_xxh64;
+  }
+  return same && (output_intact || (old.status == AssetStatus::kFailed && !context.options.retry_failed));
+}
+
+// Writes the GLB at `target`, atomically, into a directory created for it if need be.
+Status WriteOutput(const fs::path& target, const std::vector<uint8_t>& glb) {
+  std::error_code dir_ec;
+  fs::create_directories(target.parent_path(), dir_ec);
+  if (dir_ec) {
+    return IoError(fmt::format("{}: cannot create the directory: {}", target.parent_path().string(),
+                               dir_ec.message()));
+  }
+  return files::WriteFileAtomically(target, glb);
+}
+
+// The row's description of the written asset, and its status.
+void DescribeOutput(const Job& job, Converted& c, const std::vector<uint8_t>& glb, CatalogEntry* e) {
+  e->file = job.output.generic_string();
+  e->output_xxh64 = Xxh64(glb);
+  e->bytes_out = static_cast<int64_t>(glb.size());
+  e->vertices = static_cast<int64_t>(VertexCount(c.asset));
+  e->triangles = static_cast<int64_t>(TriangleCount(c.asset));
+  e->materials = static_cast<int64_t>(c.asset.materials.size());
+  e->textures = static_cast<int64_t>(c.asset.textures.size());
+  Bounds b = ComputeBounds(c.asset);
+  if (!b.empty) e->bounds = std::array<double, 6>{b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2]};
+  e->counts = std::move(c.counts);
+  e->extras = std::move(c.extras);
+  e->status = e->warnings.empty() ? AssetStatus::kOk : AssetStatus::kOkWithWarnings;
+}
+
+// Converts one job, unless its row is up to date, and writes its GLB.
+Finished ConvertJob(const Job& job, const JobContext& context) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto elapsed = [&] {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   };
+  Finished f;
+  f.outcome.key = job.key;
+  CatalogEntry e = RowOfJob(job, context);
+  auto fail = [&](const AssetFailure& failure) {
+    e.status = AssetStatus::kFailed;
+    e.error_code = failure.code;
+    e.error = failure.message;
+    f.outcome.status = "failed";
+    f.outcome.error_code = failure.code;
+    f.outcome.message = failure.message;
+    f.outcome.milliseconds = elapsed();
+    f.entry = std::move(e);
+    return std::move(f);
+  };
+  Result<std::pair<uint64_t, int64_t>> hashed = HashInputs(job);
+  if (!hashed.ok()) return fail(FailureFromStatus(hashed.status(), "read_error"));
+  e.input_hash = hashed->first;
+  e.bytes_in = hashed->second;
+  if (UpToDate(e, context)) {
+    f.outcome.status = "up_to_date";
+    f.outcome.milliseconds = elapsed();
+    return f;
+  }
+  e.warnings = json::array();
+  for (const ConvertWarning& w : job.discovery_warnings) {
+    e.warnings.push_back({{"code", w.code}, {"message", w.message}});
+  }
+  if (job.discovery_failure) return fail(*job.discovery_failure);
+  std::variant<Converted, AssetFailure> result = job.convert();
+  if (auto* failure = std::get_if<AssetFailure>(&result)) return fail(*failure);
+  Converted& c = std::get<Converted>(result);
+  for (const ConvertWarning& w : c.warnings) e.warnings.push_back({{"code", w.code}, {"message", w.message}});
+  const fs::path target = context.out / job.output;
+  Result<std::vector<uint8_t>> glb = WriteGlb(c.asset, context.options.draco);
+  if (!glb.ok()) return fail({"write_error", fmt::format("{}: {}", target.string(), glb.status().message())});
+  if (Status written = WriteOutput(target, *glb); !written.ok()) {
+    f.output_error = std::move(written);
+    return f;
+  }
+  DescribeOutput(job, c, *glb, &e);
+  f.outcome.status = std::string(AssetStatusName(e.status));
+  f.outcome.milliseconds = elapsed();
+  f.entry = std::move(e);
+  return f;
+}
+
+// Converts the jobs on options.jobs worker threads and hands each result to `record` on the
+// calling thread, in the order they finish. Once `record` returns false, or options.cancel
+// is set, the workers finish the assets in flight (their files and rows stay consistent) and
+// start no new one.
+void ConvertOnWorkers(const std::vector<Job>& jobs, const JobContext& context,
+                      const std::function<bool(Finished)>& record) {
   std::mutex mu;
   std::condition_variable cv;
   std::deque<Finished> finished;
   std::atomic<size_t> next{0};
-
-  auto work = [&](const Job& job) -> Finished {
-    auto t0 = std::chrono::steady_clock::now();
-    Finished f;
-    f.outcome.key = job.key;
-    CatalogEntry e;
-    e.key = job.key;
-    e.kind = job.kind;
-    e.source = job.source;
-    e.converter_version = version;
-    e.options_hash = options_hash;
-    for (const fs::path& p : job.inputs) e.input_files.push_back(fs::relative(p, job.input_root).generic_string());
-    auto elapsed = [&] { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); };
-    auto fail = [&](const AssetFailure& failure) {
-      e.status = AssetStatus::kFailed;
-      e.error_code = failure.code;
-      e.error = failure.message;
-      f.outcome.status = "failed";
-      f.outcome.error_code = failure.code;
-      f.outcome.message = failure.message;
-      f.outcome.milliseconds = elapsed();
-      f.entry = std::move(e);
-      return std::move(f);
-    };
-    Result<std::pair<uint64_t, int64_t>> hashed = HashInputs(job);
-    if (!hashed.ok()) return fail(FailureFromStatus(hashed.status(), "read_error"));
-    e.input_hash = hashed->first;
-    e.bytes_in = hashed->second;
-    if (auto it = existing.find(job.key); it != existing.end()) {
-      const CatalogEntry& old = it->second;
-      bool same = old.input_hash == e.input_hash && old.converter_version == version &&
-                  old.options_hash == options_hash;
-      bool output_intact = false;
-      if (same && old.status != AssetStatus::kFailed && old.file && old.output_xxh64) {
-        Result<files::FileDigest> d = files::DigestFile(out / *old.file);
-        output_intact = d.ok() && d->xxh64 == *old.output_xxh64;
-      }
-      if (same && (output_intact || (old.status == AssetStatus::kFailed && !options.retry_failed))) {
-        f.outcome.status = "up_to_date";
-        f.outcome.milliseconds = elapsed();
-        return f;
-      }
-    }
-    e.warnings = json::array();
-    for (const ConvertWarning& w : job.discovery_warnings) e.warnings.push_back({{"code", w.code}, {"message", w.message}});
-    if (job.discovery_failure) return fail(*job.discovery_failure);
-    std::variant<Converted, AssetFailure> result = job.convert();
-    if (auto* failure = std::get_if<AssetFailure>(&result)) return fail(*failure);
-    Converted& c = std::get<Converted>(result);
-    for (const ConvertWarning& w : c.warnings) e.warnings.push_back({{"code", w.code}, {"message", w.message}});
-    fs::path target = out / job.output;
-    Result<std::vector<uint8_t>> glb = WriteGlb(c.asset, options.draco);
-    if (!glb.ok()) return fail({"write_error", fmt::format("{}: {}", target.string(), glb.status().message())});
-    std::error_code dir_ec;
-    fs::create_directories(target.parent_path(), dir_ec);
-    if (dir_ec) {
-      f.output_error = IoError(fmt::format("{}: cannot create the directory: {}", target.parent_path().string(),
-                                           dir_ec.message()));
-      return f;
-    }
-    if (Status written = files::WriteFileAtomically(target, *glb); !written.ok()) {
-      f.output_error = std::move(written);
-      return f;
-    }
-    e.file = job.output.generic_string();
-    e.output_xxh64 = Xxh64(*glb);
-    e.bytes_out = static_cast<int64_t>(glb->size());
-    e.vertices = static_cast<int64_t>(VertexCount(c.asset));
-    e.triangles = static_cast<int64_t>(TriangleCount(c.asset));
-    e.materials = static_cast<int64_t>(c.asset.materials.size());
-    e.textures = static_cast<int64_t>(c.asset.textures.size());
-    Bounds b = ComputeBounds(c.asset);
-    if (!b.empty) e.bounds = std::array<double, 6>{b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2]};
-    e.counts = std::move(c.counts);
-    e.extras = std::move(c.extras);
-    e.status = e.warnings.empty() ? AssetStatus::kOk : AssetStatus::kOkWithWarnings;
-    f.outcome.status = std::string(AssetStatusName(e.status));
-    f.outcome.milliseconds = elapsed();
-    f.entry = std::move(e);
-    return f;
-  };
-
-  const int threads = std::min<int>(WorkerCount(options.jobs), static_cast<int>(std::max<size_t>(1, jobs.size())));
-  std::atomic<bool> stop{false};  // an output error: the batch cannot go on
+  std::atomic<bool> stop{false};
+  const int threads =
+      std::min<int>(WorkerCount(context.options.jobs), static_cast<int>(std::max<size_t>(1, jobs.size())));
   int workers_left = threads;
   BackgroundWorkers pool(threads, [&] {
-    // Cancelled: the asset in flight is finished (its file and row stay consistent), no
-    // new one is started.
-    for (size_t i = next++; i < jobs.size() && !stop && !CancelRequested(options.cancel); i = next++) {
-      Finished f = work(jobs[i]);
+    for (size_t i = next++; i < jobs.size() && !stop && !CancelRequested(context.options.cancel); i = next++) {
+      Finished f = ConvertJob(jobs[i], context);
       std::lock_guard lock(mu);
       finished.push_back(std::move(f));
       cv.notify_one();
@@ -458,10 +488,7 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
     --workers_left;
     cv.notify_one();
   });
-  // The first error that stops the batch; assets finished meanwhile are still recorded.
-  Status output_status = Status::Ok(), catalog_status = Status::Ok();
-  size_t done = 0;
-  for (;; ++done) {
+  for (;;) {
     Finished f;
     {
       std::unique_lock lock(mu);
@@ -470,36 +497,77 @@ Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const 
       f = std::move(finished.front());
       finished.pop_front();
     }
+    if (!record(std::move(f))) stop = true;
+  }
+  pool.Join();
+}
+
+// The calling thread's side of a run: each finished job into the catalog and the report.
+struct Recorder {
+  Catalog& catalog;
+  const ConvertOptions& options;
+  int64_t total = 0;  // jobs
+  ConvertReport report;
+  int64_t done = 0;  // results recorded, those of refused writes included
+  // The first error that stops the batch; assets finished meanwhile are still recorded.
+  Status output_error, catalog_error;
+
+  // False when the batch cannot go on.
+  bool Record(Finished f) {
+    ++done;
     if (!f.output_error.ok()) {
-      if (output_status.ok()) output_status = std::move(f.output_error);
-      stop = true;
-      continue;
+      if (output_error.ok()) output_error = std::move(f.output_error);
+      return false;
     }
     if (f.entry) {
       // The row goes in after the file is in place: a row never points at a missing file.
-      if (catalog_status.ok()) catalog_status = catalog.Put(*f.entry);
-      if (!catalog_status.ok()) stop = true;
-      report.bytes_in += f.entry->bytes_in;
-      report.bytes_out += f.entry->bytes_out;
-      switch (f.entry->status) {
-        case AssetStatus::kOk: ++report.ok; break;
-        case AssetStatus::kOkWithWarnings: ++report.ok_with_warnings; break;
-        case AssetStatus::kFailed: ++report.failed; ++report.failure_codes[*f.entry->error_code]; break;
-      }
-      for (const json& w : f.entry->warnings) ++report.warning_codes[w["code"].get<std::string>()];
+      if (catalog_error.ok()) catalog_error = catalog.Put(*f.entry);
+      Count(*f.entry);
     } else {
       ++report.up_to_date;
     }
     if (options.on_item) options.on_item(f.outcome);
-    if (options.progress) options.progress(static_cast<int64_t>(done + 1), static_cast<int64_t>(jobs.size()));
+    if (options.progress) options.progress(done, total);
+    return catalog_error.ok();
   }
-  pool.Join();
+
+  void Count(const CatalogEntry& entry) {
+    report.bytes_in += entry.bytes_in;
+    report.bytes_out += entry.bytes_out;
+    switch (entry.status) {
+      case AssetStatus::kOk: ++report.ok; break;
+      case AssetStatus::kOkWithWarnings: ++report.ok_with_warnings; break;
+      case AssetStatus::kFailed: ++report.failed; ++report.failure_codes[*entry.error_code]; break;
+    }
+    for (const json& w : entry.warnings) ++report.warning_codes[w["code"].get<std::string>()];
+  }
+};
+
+// Runs the jobs on options.jobs threads; the calling thread owns the catalog.
+Result<ConvertReport> RunJobs(std::vector<Job> jobs, const fs::path& out, const ConvertOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return IoError(fmt::format("{}: cannot create the output directory: {}", out.string(), ec.message()));
+  RemoveStaleTempsUnder(out);
+  const fs::path catalog_path = out / "catalog.sqlite";
+  SOLID_ASSIGN_OR_RETURN(Catalog catalog, Catalog::OpenForWriting(catalog_path));
+  SOLID_ASSIGN_OR_RETURN(auto existing, RowsByKey(catalog));
+  if (options.limit >= 0 && static_cast<int64_t>(jobs.size()) > options.limit) jobs.resize(static_cast<size_t>(options.limit));
+
+  const JobContext context{out, options, std::move(existing), Xxh64(OptionsIdentity(options).dump()),
+                           std::string(ConverterVersion())};
+  Recorder recorder{catalog, options, static_cast<int64_t>(jobs.size())};
+  ConvertOnWorkers(jobs, context, [&](Finished f) { return recorder.Record(std::move(f)); });
   // Closed on every path: its checkpoint is what removes the -wal and -shm files.
   const Status closed = catalog.Close();
-  SOLID_RETURN_IF_ERROR(output_status);
-  SOLID_RETURN_IF_ERROR(catalog_status);
+  SOLID_RETURN_IF_ERROR(recorder.output_error);
+  SOLID_RETURN_IF_ERROR(recorder.catalog_error);
   SOLID_RETURN_IF_ERROR(closed);
-  report.not_started = static_cast<int64_t>(jobs.size() - done);
+  ConvertReport& report = recorder.report;
+  report.catalog = catalog_path;
+  report.assets = static_cast<int64_t>(jobs.size());
+  report.not_started = report.assets - recorder.done;
   report.cancelled = report.not_started > 0;
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;

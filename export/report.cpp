@@ -410,7 +410,7 @@ Result<ReportSummary> WriteReport(const ReportOptions& options) {
 
   html += "<section id=\"metrics\"><h2>Proxy metrics</h2>";
   html += summary.target_row.empty()
-              ? std::string("<p class=\"muted\">No Table-1 row to compare with (give --target-row).</p>")
+              ? std::string("<p class=\"muted\">No Table-1 row to compare with (no target_row was given).</p>")
               : fmt::format("<p>Compared with the targets of Table-1 row <b>{}</b>.</p>", Escape(summary.target_row));
   html += "<table><tr><th>metric</th><th>measured (95% CI)</th><th>target</th><th>tolerance</th><th></th></tr>";
   for (const Metric metric : {Metric::kObjectsPerImage, Metric::kOcclusion, Metric::kSmall, Metric::kMedium,

@@ -258,7 +258,7 @@ std::string AdoptReport::Summary(const fs::path& root) const {
       root.string(), target_shards, query_shards, Hex64(m.seed), m.images, m.shard_size, m.width, m.height,
       ImageFormatName(m.image_format), Hex64(m.ParamsHash()), Hex64(m.catalog_hash), m.generator_name,
       m.generator_version);
-  for (const Status& s : unreadable) line += "\n  not adopted (solid render --repair re-renders it): " + s.message();
+  for (const Status& s : unreadable) line += "\n  not adopted (RenderOptions::repair re-renders it): " + s.message();
   return line;
 }
 

@@ -492,6 +492,48 @@ Result<const json*> GetObject(const json& object, std::string_view key) {
   return v;
 }
 
+// The accessors of a Draco primitive describe the decoded data (KHR_draco_mesh_compression),
+// and the decoder yields float attributes and unsigned integer indices whatever they declare:
+// a reader that sized its buffers by such an accessor would misread the mesh.
+Status CheckDracoAttributeAccessor(const json& accessor, std::string_view semantic, std::string_view type) {
+  SOLID_ASSIGN_OR_RETURN(const std::string declared, GetString(accessor, "type", nullptr));
+  if (declared != type) {
+    return CorruptError(fmt::format("{} accessor type {}, but Draco decodes {}", semantic, declared, type));
+  }
+  SOLID_ASSIGN_OR_RETURN(const uint64_t component_type, GetUint(accessor, "componentType"));
+  if (component_type != kFloat) {
+    return CorruptError(
+        fmt::format("{} accessor componentType {}, but Draco decodes floats ({})", semantic, component_type, kFloat));
+  }
+  return Status::Ok();
+}
+
+Status CheckDracoIndicesAccessor(const json& accessor, std::span<const uint32_t> decoded) {
+  SOLID_ASSIGN_OR_RETURN(const std::string declared, GetString(accessor, "type", nullptr));
+  if (declared != "SCALAR") {
+    return CorruptError(fmt::format("indices accessor type {}, but Draco decodes SCALAR", declared));
+  }
+  SOLID_ASSIGN_OR_RETURN(const uint64_t component_type, GetUint(accessor, "componentType"));
+  // The largest value of each type is the primitive restart, which glTF forbids as an index.
+  uint64_t restart = 0;
+  switch (component_type) {
+    case kUnsignedByte: restart = 0xFF; break;
+    case kUnsignedShort: restart = 0xFFFF; break;
+    case kUnsignedInt: restart = 0xFFFFFFFF; break;
+    default:
+      return CorruptError(fmt::format("indices accessor componentType {}, but Draco decodes unsigned integers "
+                                      "({}, {} or {})",
+                                      component_type, kUnsignedByte, kUnsignedShort, kUnsignedInt));
+  }
+  if (const auto largest = std::max_element(decoded.begin(), decoded.end());
+      largest != decoded.end() && *largest >= restart) {
+    return CorruptError(fmt::format("indices accessor componentType {} holds indices below {}, but Draco decoded "
+                                    "index {}",
+                                    component_type, restart, *largest));
+  }
+  return Status::Ok();
+}
+
 class GltfReader {
  public:
   GltfReader(const json& root, std::span<const uint8_t> bin, bool has_bin)
@@ -767,6 +809,11 @@ Result<Primitive> GltfReader::ReadPrimitive(const json& primitive) {
         return CorruptError(
             fmt::format("{} accessor count {} but Draco decoded {} points", semantics[k].name, count, n));
       }
+      if (!id_slots[k]->has_value()) continue;  // read from its own accessor below
+      SOLID_ASSIGN_OR_RETURN(const uint64_t i, GetUint(*attributes, semantics[k].name));
+      SOLID_RETURN_IF_ERROR(CheckDracoAttributeAccessor(*semantics[k].accessor, semantics[k].name,
+                                                        semantics[k].components == 3 ? "VEC3" : "VEC2")
+                                .WithContext(fmt::format("accessors[{}]", i)));
     }
     if (Find(primitive, "indices") != nullptr) {
       SOLID_ASSIGN_OR_RETURN(const uint32_t i, GetIndex(primitive, "indices", accessors_->size(), "accessors"));
@@ -775,6 +822,8 @@ Result<Primitive> GltfReader::ReadPrimitive(const json& primitive) {
       if (count != p.indices.size()) {
         return CorruptError(fmt::format("indices accessor count {} but Draco decoded {}", count, p.indices.size()));
       }
+      SOLID_RETURN_IF_ERROR(
+          CheckDracoIndicesAccessor((*accessors_)[i], p.indices).WithContext(fmt::format("accessors[{}]", i)));
     }
   }
   // Attributes not in the Draco stream (or every attribute of a plain primitive)

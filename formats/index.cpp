@@ -101,7 +101,7 @@ Result<IndexReport> FillIndex(Db& db, const fs::path& root, const ProgressCallba
     const std::string name = p.filename().string();
     if (ParseTargetShardFileName(name).ok() || ParseQueryShardFileName(name).ok()) {
       report.skipped.push_back(CorruptError(p.string() + ": named as a shard, but not a regular file inside the "
-                                                         "dataset (solid render --repair replaces it)"));
+                                                         "dataset (RenderOptions::repair replaces it)"));
     }
   }
   SOLID_RETURN_IF_ERROR(db.Exec("BEGIN"));
@@ -240,8 +240,8 @@ Result<IndexReport> BuildIndex(const fs::path& root, const ProgressCallback& pro
   std::error_code exists_ec;
   if (!fs::is_directory(root, exists_ec)) return NotFoundError(root.string() + ": no dataset directory");
   if (!fs::exists(paths.manifest(), exists_ec)) {
-    return NotFoundError(fmt::format("{}: no manifest.json: solid index --adopt rebuilds it from the shards, when "
-                                     "they agree on what they were made from",
+    return NotFoundError(fmt::format("{}: no manifest.json: adopting the shards (AdoptManifest) rebuilds it from "
+                                     "their provenance, when they agree on what they were made from",
                                      root.string()));
   }
   fs::path temp = files::TempPathFor(paths.index());
@@ -288,7 +288,9 @@ Result<IndexReport> Index(const IndexOptions& options) {
 Result<std::vector<std::string>> CompareIndex(const fs::path& root) {
   DatasetPaths paths(root);
   std::error_code ec;
-  if (!fs::exists(paths.index(), ec)) return NotFoundError(paths.index().string() + ": no index (run solid index)");
+  if (!fs::exists(paths.index(), ec)) {
+    return NotFoundError(paths.index().string() + ": no index (BuildIndex builds it)");
+  }
   SOLID_ASSIGN_OR_RETURN(Db expected, Db::OpenInMemory());
   SOLID_RETURN_IF_ERROR(sqlite::CreateSchema(expected, "index.sql"));
   SOLID_ASSIGN_OR_RETURN(IndexReport report, FillIndex(expected, root, {}));

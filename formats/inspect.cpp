@@ -236,7 +236,8 @@ std::string InspectReport::ToText() const {
     size_t shown = 0;
     for (const json& f : j["failures"]) {
       if (++shown > 20) {
-        out += fmt::format("  ... {} more failures (solid inspect --json)\n", j["failures"].size() - 20);
+        out += fmt::format("  ... {} more failures (InspectReport::ToJson lists them all)\n",
+                           j["failures"].size() - 20);
         break;
       }
       out += fmt::format("  FAILED {} [{}]: {}\n", f["key"].get<std::string>(), f["code"].get<std::string>(),
@@ -290,7 +291,7 @@ std::string InspectReport::ToText() const {
     line("per image", fmt::format("{} image, {} masks", Bytes(t["image_bytes"].get<int64_t>() / images),
                                   Bytes(t["rle_bytes"].get<int64_t>() / images)));
   }
-  line("index", j["index_present"].get<bool>() ? "present" : "absent (run solid index)");
+  line("index", j["index_present"].get<bool>() ? "present" : "absent (BuildIndex builds it)");
   metrics_block(j["metrics"]);
   for (const json& u : j["unreadable"]) {
     out += fmt::format("unreadable: {}: {}\n", u["file"].get<std::string>(), u["error"].get<std::string>());

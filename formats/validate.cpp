@@ -327,8 +327,8 @@ ValidationReport ValidateDataset(const fs::path& root, const ValidateOptions& op
   for (const fs::path& p : listing->unexpected) {
     const std::string name = p.filename().string();
     const bool shard_name = ParseTargetShardFileName(name).ok() || ParseQueryShardFileName(name).ok();
-    check.Problem(p.string(), shard_name ? "named as a shard, but not a regular file inside the dataset (solid "
-                                           "render --repair replaces it)"
+    check.Problem(p.string(), shard_name ? "named as a shard, but not a regular file inside the dataset "
+                                           "(RenderOptions::repair replaces it)"
                                          : "unexpected file in a shard directory");
   }
 

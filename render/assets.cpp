@@ -194,7 +194,7 @@ Result<std::shared_ptr<AssetLibrary>> AssetLibrary::Open(const std::filesystem::
     const std::filesystem::path catalog_path = dirs[d] / "catalog.sqlite";
     if (!std::filesystem::exists(catalog_path)) {
       return NotFoundError(fmt::format("{}: no catalog.sqlite; is this an assets directory written by "
-                                       "`solid convert`?",
+                                       "convert::Convert?",
                                        dirs[d].string()));
     }
     SOLID_ASSIGN_OR_RETURN(Catalog catalog, Catalog::OpenReadOnly(catalog_path));

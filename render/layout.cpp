@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "solid/formats/random.h"
+#include "room.h"
 #include "streams.h"
 
 namespace solid::render {

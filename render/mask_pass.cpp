@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "instance_scene.h"
+#include "room.h"
 #include "solid/formats/workers.h"
 
 namespace solid::render {

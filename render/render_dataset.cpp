@@ -31,6 +31,7 @@
 #include "solid/render/sample.h"
 
 #include "solid/formats/workers.h"
+#include "room.h"
 
 namespace solid::render {
 namespace {
@@ -119,6 +120,36 @@ void AddStages(StageTimes* total, const StageTimes& s) {
   total->query_views += s.query_views;
 }
 
+// What a shard's images come to before the shard is published.
+struct ShardContent {
+  std::vector<std::string> failures;                 // of the images left out
+  nlohmann::json lights = nlohmann::json::object();  // image id -> its light rig
+  StageTimes stages;
+  int64_t images = 0, instances = 0;
+};
+
+// Image `id` into its shard, or among the shard's failures.
+Status AddToShard(ShardWriter& writer, int64_t id, RenderedImage& image, ShardContent* content,
+                  std::set<std::string>* models) {
+  AddStages(&content->stages, image.stages);
+  if (!image.failure.empty()) {
+    content->failures.push_back(image.failure);
+    return Status::Ok();
+  }
+  const auto start = Clock::now();
+  content->lights[std::to_string(id)] = std::move(image.lights);
+  Status status = writer.AddImage(image.image);
+  for (const InstanceRecord& instance : image.instances) {
+    if (!status.ok()) break;
+    status = writer.AddInstance(instance);
+    models->insert(instance.model_key);
+  }
+  content->stages.writing += MillisecondsSince(start);
+  ++content->images;
+  content->instances += static_cast<int64_t>(image.instances.size());
+  return status;
+}
+
 class Renderer {
  public:
   Renderer(const LayoutSampler& sampler, const RenderOptions& options, const Manifest& manifest)
@@ -161,19 +192,14 @@ class Renderer {
     BackgroundWorkers pool(jobs, worker);
 
     Status status;
-    std::vector<std::string> failures;
-    nlohmann::json lights = nlohmann::json::object();  // image id -> its light rig
-    StageTimes stages;
+    ShardContent content;  // the report's only once the shard is published
     const auto shard_start = Clock::now();
-    int64_t images = 0, instances = 0;  // the report's only once the shard is published
     bool finishing = false;  // cancelled, but the rest of the shard is worth its time
     for (; written < end && status.ok(); ++written) {
       if (!finishing && CancelRequested(options_.cancel)) {
-        const int64_t done = written - first;
-        const double per_image_s = done > 0 ? MillisecondsSince(shard_start) / 1000 / done : 0;
-        finishing = done > 0 && per_image_s * (end - written) <= options_.finish_shard_seconds;
+        finishing = WorthFinishing(written - first, end - written, shard_start);
         if (!finishing) {
-          status = CancelledError(fmt::format("stopped after {} of its {} images", done, end - first));
+          status = CancelledError(fmt::format("stopped after {} of its {} images", written - first, end - first));
           break;
         }
       }
@@ -189,23 +215,7 @@ class Renderer {
         status = image.error;
         break;
       }
-      AddStages(&stages, image.stages);
-      if (!image.failure.empty()) {
-        failures.push_back(image.failure);
-        Progress();
-        continue;
-      }
-      const auto start = Clock::now();
-      lights[std::to_string(written)] = std::move(image.lights);
-      status = writer.AddImage(image.image);
-      for (const InstanceRecord& instance : image.instances) {
-        if (!status.ok()) break;
-        status = writer.AddInstance(instance);
-        models->insert(instance.model_key);
-      }
-      stages.writing += MillisecondsSince(start);
-      ++images;
-      instances += static_cast<int64_t>(image.instances.size());
+      status = AddToShard(writer, written, image, &content, models);
       Progress();
     }
     {
@@ -215,21 +225,7 @@ class Renderer {
     changed.notify_all();
     pool.Join();
     SOLID_RETURN_IF_ERROR(status.WithContext(paths_.shard(shard).string()));
-
-    report_.failed_images += static_cast<int64_t>(failures.size());
-    for (const std::string& f : failures) {
-      if (report_.failures.size() < 5) report_.failures.push_back(f);
-    }
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("failed_images", nlohmann::json(failures).dump()));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("stage_ms", stages.ToJson().dump()));
-    SOLID_RETURN_IF_ERROR(writer.SetMeta("lights", lights.dump()));
-    const auto start = Clock::now();
-    SOLID_RETURN_IF_ERROR(writer.Commit());
-    stages.writing += MillisecondsSince(start);
-    AddStages(&report_.stages, stages);
-    report_.images += images;
-    report_.instances += instances;
-    return Status::Ok();
+    return Publish(writer, content);
   }
 
   // Every model of catalog range Q, in catalog order, rendered in parallel.
@@ -237,11 +233,6 @@ class Renderer {
     const auto& models = sampler_.library()->models();
     const size_t first = static_cast<size_t>(q * options_.query_shard_models);
     const size_t end = std::min(models.size(), first + static_cast<size_t>(options_.query_shard_models));
-    struct ModelViews {
-      QueryModelRecord model;
-      std::vector<QueryViewRecord> views;
-      Status error;
-    };
     std::vector<ModelViews> rendered(end - first);
     std::atomic<size_t> next{first};
     std::atomic<bool> cancelled{false};
@@ -251,46 +242,7 @@ class Renderer {
           cancelled = true;
           return;
         }
-        ModelViews& out = rendered[i - first];
-        out.model.model_key = models[i].key;
-        Result<std::shared_ptr<const LoadedAsset>> asset = sampler_.library()->Model(i);
-        if (!asset.ok()) {
-          out.model.failure = asset.status().ToString();
-          continue;
-        }
-        // The model's own stream: its views are the same whichever images use it.
-        const uint64_t seed = MixSeed(options_.seed, Xxh64(models[i].key));
-        QueryViewOptions view_options = options_.query_views;
-        view_options.threads = 1;  // models run in parallel instead
-        Result<QueryViewsResult> views = RenderQueryViews(*asset, seed, view_options, textures_);
-        if (!views.ok()) {
-          out.model.failure = views.status().ToString();
-          continue;
-        }
-        if (!views->failed.empty()) {
-          out.model.failure = fmt::format("the model covers no pixel at azimuth(s) {} deg", fmt::join(views->failed, ", "));
-        }
-        for (size_t v = 0; v < views->views.size(); ++v) {
-          QueryView& view = views->views[v];
-          QueryViewRecord record;
-          record.model_key = models[i].key;
-          record.view_index = static_cast<int32_t>(v);
-          record.azimuth = view.azimuth_deg * std::numbers::pi / 180;
-          record.elevation = view.elevation_deg * std::numbers::pi / 180;
-          record.width = view.image.width;
-          record.height = view.image.height;
-          record.format = options_.format;
-          // Views are cropped to the object: its box is the whole stored image.
-          record.box = {0, 0, view.image.width, view.image.height};
-          Result<std::vector<uint8_t>> encoded = EncodeImage(view.image, options_.format, options_.quality);
-          if (!encoded.ok()) {
-            out.error = encoded.status().WithContext(fmt::format("{} view {}", models[i].key, v));
-            break;
-          }
-          record.image = std::move(encoded).value();
-          out.views.push_back(std::move(record));
-        }
-        out.model.view_count = static_cast<int32_t>(out.views.size());
+        rendered[i - first] = RenderModelViews(i);
       }
     };
     const auto start = Clock::now();
@@ -317,6 +269,83 @@ class Renderer {
   RenderReport& report() { return report_; }
 
  private:
+  struct ModelViews {
+    QueryModelRecord model;
+    std::vector<QueryViewRecord> views;
+    Status error;
+  };
+
+  // The query views of catalog model i, encoded; a model without them records why.
+  ModelViews RenderModelViews(size_t i) {
+    const AssetEntry& entry = sampler_.library()->models()[i];
+    ModelViews out;
+    out.model.model_key = entry.key;
+    Result<std::shared_ptr<const LoadedAsset>> asset = sampler_.library()->Model(i);
+    if (!asset.ok()) {
+      out.model.failure = asset.status().ToString();
+      return out;
+    }
+    // The model's own stream: its views are the same whichever images use it.
+    const uint64_t seed = MixSeed(options_.seed, Xxh64(entry.key));
+    QueryViewOptions view_options = options_.query_views;
+    view_options.threads = 1;  // models run in parallel instead
+    Result<QueryViewsResult> views = RenderQueryViews(*asset, seed, view_options, textures_);
+    if (!views.ok()) {
+      out.model.failure = views.status().ToString();
+      return out;
+    }
+    if (!views->failed.empty()) {
+      out.model.failure = fmt::format("the model covers no pixel at azimuth(s) {} deg", fmt::join(views->failed, ", "));
+    }
+    for (size_t v = 0; v < views->views.size(); ++v) {
+      QueryView& view = views->views[v];
+      QueryViewRecord record;
+      record.model_key = entry.key;
+      record.view_index = static_cast<int32_t>(v);
+      record.azimuth = view.azimuth_deg * std::numbers::pi / 180;
+      record.elevation = view.elevation_deg * std::numbers::pi / 180;
+      record.width = view.image.width;
+      record.height = view.image.height;
+      record.format = options_.format;
+      // Views are cropped to the object: its box is the whole stored image.
+      record.box = {0, 0, view.image.width, view.image.height};
+      Result<std::vector<uint8_t>> encoded = EncodeImage(view.image, options_.format, options_.quality);
+      if (!encoded.ok()) {
+        out.error = encoded.status().WithContext(fmt::format("{} view {}", entry.key, v));
+        break;
+      }
+      record.image = std::move(encoded).value();
+      out.views.push_back(std::move(record));
+    }
+    out.model.view_count = static_cast<int32_t>(out.views.size());
+    return out;
+  }
+
+  // Cancelled after `done` images of a shard, with `left` to go: they are worth finishing
+  // when they should take at most finish_shard_seconds at the shard's rate so far.
+  bool WorthFinishing(int64_t done, int64_t left, Clock::time_point shard_start) const {
+    const double per_image_s = done > 0 ? MillisecondsSince(shard_start) / 1000 / done : 0;
+    return done > 0 && per_image_s * left <= options_.finish_shard_seconds;
+  }
+
+  // The shard's metadata, then the shard; its content counts in the report from then on.
+  Status Publish(ShardWriter& writer, ShardContent& content) {
+    report_.failed_images += static_cast<int64_t>(content.failures.size());
+    for (const std::string& f : content.failures) {
+      if (report_.failures.size() < 5) report_.failures.push_back(f);
+    }
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("failed_images", nlohmann::json(content.failures).dump()));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("stage_ms", content.stages.ToJson().dump()));
+    SOLID_RETURN_IF_ERROR(writer.SetMeta("lights", content.lights.dump()));
+    const auto start = Clock::now();
+    SOLID_RETURN_IF_ERROR(writer.Commit());
+    content.stages.writing += MillisecondsSince(start);
+    AddStages(&report_.stages, content.stages);
+    report_.images += content.images;
+    report_.instances += content.instances;
+    return Status::Ok();
+  }
+
   void Progress() {
     ++progress_done_;
     if (options_.progress) options_.progress(progress_done_, progress_total_);
@@ -398,7 +427,7 @@ Status ClearForRepair(const fs::path& path) {
 }
 
 Status Refuse(const fs::path& path, const std::string& damage) {
-  return CorruptError(fmt::format("{}: not this dataset's shard: {}; solid render --repair re-renders it",
+  return CorruptError(fmt::format("{}: not this dataset's shard: {}; RenderOptions::repair re-renders it",
                                   path.string(), damage));
 }
 
@@ -411,6 +440,270 @@ Status ModelsOfShard(const fs::path& path, std::set<std::string>* models) {
         return Status::Ok();
       },
       ChecksumPolicy::kSkip);
+}
+
+Status CheckCounts(const RenderOptions& options) {
+  if (options.images < 0) return OptionError("images", "must be >= 0");
+  if (options.shard_size < 1) return OptionError("shard_size", "must be >= 1");
+  if (options.query_shard_models < 1) return OptionError("query_shard_models", "must be >= 1");
+  return Status::Ok();
+}
+
+// Creates the dataset in options.out, or adopts the shards there (options.adopt), and checks
+// that the dataset there is the one `manifest` describes; true when it adopted. Farm
+// processes may race to create the dataset: identical manifests make that harmless. Shards
+// without a manifest are never taken for this render's: their provenance is adopted, or the
+// render refused.
+Result<bool> OpenDataset(const RenderOptions& options, const Manifest& manifest) {
+  bool adopted = false;
+  std::error_code ec;
+  if (!fs::exists(DatasetPaths(options.out).manifest(), ec)) {
+    SOLID_ASSIGN_OR_RETURN(const ShardListing found, ListShards(options.out));
+    const size_t held = found.targets.size() + found.queries.size() + found.unexpected.size();
+    if (held == 0) {
+      SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
+    } else if (!options.adopt) {
+      return NotFoundError(fmt::format("{}: no manifest.json, but {} shard file(s): RenderOptions::adopt rebuilds "
+                                       "the manifest from their provenance (when they agree), or render into a new "
+                                       "directory",
+                                       options.out.string(), held));
+    } else {
+      SOLID_ASSIGN_OR_RETURN(const AdoptReport adoption, AdoptManifest(options.out));
+      if (options.on_note) options.on_note(adoption.Summary(options.out));
+      adopted = true;
+    }
+  }
+  SOLID_ASSIGN_OR_RETURN(Manifest existing, ReadManifest(options.out));
+  if (const std::string why = ManifestDifference(existing, manifest); !why.empty()) {
+    return AlreadyExistsError(fmt::format("{}: the dataset there was rendered with other settings ({}); render into "
+                                          "a new directory, or repeat the settings it was made with",
+                                          options.out.string(), why));
+  }
+  return adopted;
+}
+
+// Target shards first..last; none when last < first.
+struct ShardRange {
+  int64_t first = 0, last = -1;
+};
+
+// The target shards options.shards asks for, every shard of the dataset without it.
+Result<ShardRange> RequestedShards(const RenderOptions& options, const Manifest& manifest) {
+  const int64_t shard_count = manifest.ShardCount();
+  if (!options.shards) return ShardRange{0, shard_count - 1};
+  const auto [first, last] = *options.shards;
+  if (first < 0 || last < first || last >= shard_count) {
+    return OptionError("shards", fmt::format("{}-{}: the dataset has shards 0-{} ({} images of {})", first, last,
+                                            shard_count - 1, manifest.images, manifest.shard_size));
+  }
+  return ShardRange{first, last};
+}
+
+// A target shard to render: missing, or present but damaged (rendered anew in its place).
+struct ShardTask {
+  int64_t shard = 0;
+  bool damaged = false;
+};
+
+// What the steps of one RenderDataset call share.
+struct DatasetRun {
+  DatasetRun(const LayoutSampler& sampler, const RenderOptions& options, const Manifest& manifest)
+      : sampler(sampler), options(options), manifest(manifest), paths(options.out),
+        renderer(sampler, options, manifest) {}
+
+  RenderReport& report() { return renderer.report(); }
+  void Note(const std::string& line) const {
+    if (options.on_note) options.on_note(line);
+  }
+
+  const LayoutSampler& sampler;
+  const RenderOptions& options;
+  const Manifest& manifest;
+  const DatasetPaths paths;
+  Renderer renderer;
+  std::set<std::string> models;  // used by the requested target shards: their query shards are needed
+  bool stopped = false;          // cancelled with something requested left undone
+  bool warned_unlocked = false;
+};
+
+// A present target shard this render keeps: counted, and its models noted for the query shards.
+Status KeepPresentShard(DatasetRun& run, int64_t k) {
+  ++run.report().shards_present;
+  if (run.options.queries) return ModelsOfShard(run.paths.shard(k), &run.models);
+  return Status::Ok();
+}
+
+// The requested target shards that are missing, or damaged when repairing (a damaged one
+// stops the render otherwise); their images are the progress total.
+Result<std::vector<ShardTask>> ShardsToRender(DatasetRun& run, ShardRange requested) {
+  std::vector<ShardTask> todo;
+  int64_t images = 0;
+  for (int64_t k = requested.first; k <= requested.last; ++k) {
+    const Examined e = Examine(run.paths.shard(k), run.manifest, /*query=*/false, k, run.options.repair);
+    if (e.present && e.damage.empty()) {
+      SOLID_RETURN_IF_ERROR(KeepPresentShard(run, k));
+      continue;
+    }
+    if (e.present && !run.options.repair) return Refuse(run.paths.shard(k), e.damage);
+    if (e.present) run.Note(fmt::format("shard {}: {}: re-rendering it", k, e.damage));
+    todo.push_back({k, e.present});
+    images += std::min(run.manifest.shard_size, run.manifest.images - k * run.manifest.shard_size);
+  }
+  run.renderer.SetProgressTotal(images);
+  return todo;
+}
+
+// Renders the shard under its lock; false when another process holds the lock.
+Result<bool> RenderUnderLock(DatasetRun& run, ShardTask task) {
+  const fs::path path = run.paths.shard(task.shard);
+  SOLID_ASSIGN_OR_RETURN(files::FileLock lock, files::FileLock::TryAcquire(path));
+  if (lock.state() == files::FileLock::State::kHeldByOther) return false;
+  if (lock.state() == files::FileLock::State::kUnsupported && !run.warned_unlocked) {
+    run.Note(fmt::format("{}; rendering without locks: two processes given one shard may both render it, and the "
+                         "first to publish wins", lock.unsupported_reason()));
+    run.warned_unlocked = true;
+  }
+  // Published by another process since the listing, or while we waited for its lock.
+  std::error_code exists_ec;
+  if (!task.damaged && fs::exists(path, exists_ec)) {
+    SOLID_RETURN_IF_ERROR(KeepPresentShard(run, task.shard));
+    return true;
+  }
+  if (task.damaged) SOLID_RETURN_IF_ERROR(ClearForRepair(path));
+  const Status rendered = run.renderer.RenderShard(task.shard, task.damaged, &run.models);
+  RenderReport& report = run.report();
+  if (rendered.code() == StatusCode::kCancelled) {
+    report.abandoned_shard = task.shard;  // the writer removed its temporary file
+    run.stopped = true;
+    return true;
+  }
+  if (rendered.code() == StatusCode::kAlreadyExists && !lock.held()) {
+    // No locks here, and another process published it first.
+    SOLID_RETURN_IF_ERROR(KeepPresentShard(run, task.shard));
+    return true;
+  }
+  SOLID_RETURN_IF_ERROR(rendered);
+  ++report.shards_rendered;
+  if (task.damaged) ++report.shards_repaired;
+  return true;
+}
+
+// Renders the shards of `todo` that no other process holds, and returns those that one does.
+Result<std::vector<ShardTask>> RenderUnheldShards(DatasetRun& run, const std::vector<ShardTask>& todo) {
+  std::vector<ShardTask> held_elsewhere;
+  for (const ShardTask& task : todo) {
+    if (run.stopped || CancelRequested(run.options.cancel)) {
+      run.stopped = true;
+      break;
+    }
+    SOLID_ASSIGN_OR_RETURN(const bool done, RenderUnderLock(run, task));
+    if (!done) {
+      run.Note(fmt::format("shard {}: another process is rendering it ({} is locked); rendering the others first",
+                           task.shard, files::LockPathFor(run.paths.shard(task.shard)).string()));
+      held_elsewhere.push_back(task);
+    }
+  }
+  return held_elsewhere;
+}
+
+// What other processes hold: waits until they publish, or die and leave the shard to us.
+Status AwaitShardsHeldElsewhere(DatasetRun& run, const std::vector<ShardTask>& held_elsewhere) {
+  bool waiting_noted = false;
+  for (size_t i = 0; i < held_elsewhere.size() && !run.stopped;) {
+    if (CancelRequested(run.options.cancel)) {
+      run.stopped = true;
+      break;
+    }
+    const ShardTask task = held_elsewhere[i];
+    const int64_t present_before = run.report().shards_present;
+    SOLID_ASSIGN_OR_RETURN(const bool done, RenderUnderLock(run, task));
+    if (done) {
+      if (run.report().shards_present > present_before) {
+        ++run.report().shards_by_others;
+        run.Note(fmt::format("shard {}: published by the other process", task.shard));
+      }
+      ++i;
+      continue;
+    }
+    if (!waiting_noted) {
+      run.Note(fmt::format("waiting for {} shard(s) that other processes are rendering", held_elsewhere.size() - i));
+      waiting_noted = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return Status::Ok();
+}
+
+// The query shards that hold the models of the requested target shards.
+Result<std::set<int64_t>> QueryShardsOfModels(const DatasetRun& run) {
+  const auto& catalog = run.sampler.library()->models();
+  std::set<int64_t> query_shards;
+  for (const std::string& key : run.models) {
+    const auto it = std::lower_bound(catalog.begin(), catalog.end(), key,
+                                     [](const AssetEntry& e, const std::string& k) { return e.key < k; });
+    if (it == catalog.end() || it->key != key) {
+      return CorruptError(fmt::format("{}: model {} is in the shards but not in the asset catalog",
+                                      run.options.out.string(), key));
+    }
+    query_shards.insert(static_cast<int64_t>(it - catalog.begin()) / run.options.query_shard_models);
+  }
+  return query_shards;
+}
+
+// The query shards the requested target shards need that are missing (or damaged, when
+// repairing); a stop leaves the rest for a rerun.
+Status RenderQueryShards(DatasetRun& run) {
+  SOLID_ASSIGN_OR_RETURN(const std::set<int64_t> query_shards, QueryShardsOfModels(run));
+  RenderReport& report = run.report();
+  for (int64_t q : query_shards) {
+    const fs::path path = run.paths.query_shard(q);
+    const Examined e = Examine(path, run.manifest, /*query=*/true, q, run.options.repair);
+    if (e.present && e.damage.empty()) {
+      ++report.query_shards_present;
+      continue;
+    }
+    if (e.present && !run.options.repair) return Refuse(path, e.damage);
+    if (CancelRequested(run.options.cancel)) {
+      run.stopped = true;
+      break;
+    }
+    if (e.present) {
+      run.Note(fmt::format("query shard {}: {}: re-rendering it", q, e.damage));
+      SOLID_RETURN_IF_ERROR(ClearForRepair(path));
+    }
+    const Status written = run.renderer.RenderQueryShard(q, e.present);
+    if (written.code() == StatusCode::kCancelled) {
+      run.stopped = true;
+      break;
+    }
+    if (written.code() == StatusCode::kAlreadyExists) {
+      ++report.query_shards_present;  // another process of the farm published the same bytes first
+      continue;
+    }
+    SOLID_RETURN_IF_ERROR(written);
+    ++report.query_shards_rendered;
+    if (e.present) ++report.query_shards_repaired;
+  }
+  return Status::Ok();
+}
+
+// Stopped before the end: the requested shards that are missing. The index waits for the
+// run that completes the dataset.
+void ReportStop(DatasetRun& run, ShardRange requested) {
+  for (int64_t k = requested.first; k <= requested.last; ++k) {
+    std::error_code missing_ec;
+    if (!fs::exists(run.paths.shard(k), missing_ec)) run.report().shards_missing.push_back(k);
+  }
+  run.report().cancelled = true;
+}
+
+// The index, once every target shard of the dataset is there (this process's or others').
+Status IndexWhenComplete(DatasetRun& run) {
+  SOLID_ASSIGN_OR_RETURN(const ShardListing listing, ListShards(run.options.out));
+  if (static_cast<int64_t>(listing.targets.size()) != run.manifest.ShardCount()) return Status::Ok();
+  SOLID_RETURN_IF_ERROR(BuildIndex(run.options.out).status());
+  run.report().index_built = true;
+  return Status::Ok();
 }
 
 }  // namespace
@@ -487,202 +780,23 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
 
 Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOptions& options) {
   const auto start = Clock::now();
-  bool report_adopted = false;
-  if (options.images < 0) return OptionError("images", "must be >= 0");
-  if (options.shard_size < 1) return OptionError("shard_size", "must be >= 1");
-  if (options.query_shard_models < 1) return OptionError("query_shard_models", "must be >= 1");
+  SOLID_RETURN_IF_ERROR(CheckCounts(options));
   const Manifest manifest = RenderManifest(sampler, options);
-  const DatasetPaths paths(options.out);
-
-  auto note = [&](const std::string& line) {
-    if (options.on_note) options.on_note(line);
-  };
-  // Farm processes may race to create the dataset: identical manifests make that harmless.
-  // Shards without a manifest are never taken for this render's: their provenance is
-  // adopted, or the render refused.
-  std::error_code ec;
-  if (!fs::exists(paths.manifest(), ec)) {
-    SOLID_ASSIGN_OR_RETURN(const ShardListing found, ListShards(options.out));
-    const size_t held = found.targets.size() + found.queries.size() + found.unexpected.size();
-    if (held == 0) {
-      SOLID_RETURN_IF_ERROR(CreateDataset(options.out, manifest));
-    } else if (!options.adopt) {
-      return NotFoundError(fmt::format("{}: no manifest.json, but {} shard file(s): --adopt rebuilds the manifest "
-                                       "from their provenance (when they agree), or render into a new directory",
-                                       options.out.string(), held));
-    } else {
-      SOLID_ASSIGN_OR_RETURN(const AdoptReport adopted, AdoptManifest(options.out));
-      note(adopted.Summary(options.out));
-      report_adopted = true;
-    }
-  }
-  SOLID_ASSIGN_OR_RETURN(Manifest existing, ReadManifest(options.out));
-  if (const std::string why = ManifestDifference(existing, manifest); !why.empty()) {
-    return AlreadyExistsError(fmt::format("{}: the dataset there was rendered with other settings ({}); render into "
-                                          "a new directory, or repeat the flags it was made with",
-                                          options.out.string(), why));
-  }
-
-  const int64_t shard_count = manifest.ShardCount();
-  int64_t first = 0, last = shard_count - 1;
-  if (options.shards) {
-    std::tie(first, last) = *options.shards;
-    if (first < 0 || last < first || last >= shard_count) {
-      return OptionError("shards", fmt::format("{}-{}: the dataset has shards 0-{} ({} images of {})", first,
-                                              last, shard_count - 1, manifest.images, manifest.shard_size));
-    }
-  }
-
-  Renderer renderer(sampler, options, manifest);
-  RenderReport& report = renderer.report();
-  report.adopted = report_adopted;
-  report.shards_requested = shard_count == 0 ? 0 : last - first + 1;
-  std::vector<std::pair<int64_t, bool>> todo;  // (shard, replace)
-  bool warned_unlocked = false, waiting_noted = false;
-  bool stopped = false;  // cancelled with something requested left undone
-  std::set<std::string> models;
-  int64_t todo_images = 0;
-  for (int64_t k = first; k <= last && shard_count > 0; ++k) {
-    const Examined e = Examine(paths.shard(k), manifest, /*query=*/false, k, options.repair);
-    if (e.present && e.damage.empty()) {
-      ++report.shards_present;
-      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
-      continue;
-    }
-    if (e.present && !options.repair) return Refuse(paths.shard(k), e.damage);
-    if (e.present) note(fmt::format("shard {}: {}: re-rendering it", k, e.damage));
-    todo.emplace_back(k, e.present);
-    todo_images += std::min(manifest.shard_size, manifest.images - k * manifest.shard_size);
-  }
-  renderer.SetProgressTotal(todo_images);
-  // Renders shard k under its lock; false when another process holds the lock.
-  auto render_locked = [&](int64_t k, bool damaged) -> Result<bool> {
-    SOLID_ASSIGN_OR_RETURN(files::FileLock lock, files::FileLock::TryAcquire(paths.shard(k)));
-    if (lock.state() == files::FileLock::State::kHeldByOther) return false;
-    if (lock.state() == files::FileLock::State::kUnsupported && !warned_unlocked) {
-      note(fmt::format("{}; rendering without locks: two processes given one shard may both render it, and the "
-                       "first to publish wins", lock.unsupported_reason()));
-      warned_unlocked = true;
-    }
-    // Published by another process since the listing above, or while we waited for its lock.
-    std::error_code exists_ec;
-    if (!damaged && fs::exists(paths.shard(k), exists_ec)) {
-      ++report.shards_present;
-      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
-      return true;
-    }
-    if (damaged) SOLID_RETURN_IF_ERROR(ClearForRepair(paths.shard(k)));
-    const Status rendered = renderer.RenderShard(k, damaged, &models);
-    if (rendered.code() == StatusCode::kCancelled) {
-      report.abandoned_shard = k;  // the writer removed its temporary file
-      stopped = true;
-      return true;
-    }
-    if (rendered.code() == StatusCode::kAlreadyExists && !lock.held()) {
-      ++report.shards_present;  // no locks here, and another process published it first
-      if (options.queries) SOLID_RETURN_IF_ERROR(ModelsOfShard(paths.shard(k), &models));
-      return true;
-    }
-    SOLID_RETURN_IF_ERROR(rendered);
-    ++report.shards_rendered;
-    if (damaged) ++report.shards_repaired;
-    return true;
-  };
-  std::vector<std::pair<int64_t, bool>> held_elsewhere;
-  for (const auto& [k, damaged] : todo) {
-    if (stopped || CancelRequested(options.cancel)) {
-      stopped = true;
-      break;
-    }
-    SOLID_ASSIGN_OR_RETURN(const bool done, render_locked(k, damaged));
-    if (!done) {
-      note(fmt::format("shard {}: another process is rendering it ({} is locked); rendering the others first", k,
-                       files::LockPathFor(paths.shard(k)).string()));
-      held_elsewhere.emplace_back(k, damaged);
-    }
-  }
-  // What other processes hold: wait until they publish, or die and leave the shard to us.
-  for (size_t i = 0; i < held_elsewhere.size() && !stopped;) {
-    if (CancelRequested(options.cancel)) {
-      stopped = true;
-      break;
-    }
-    const auto [k, damaged] = held_elsewhere[i];
-    const int64_t present_before = report.shards_present;
-    SOLID_ASSIGN_OR_RETURN(const bool done, render_locked(k, damaged));
-    if (done) {
-      if (report.shards_present > present_before) {
-        ++report.shards_by_others;
-        note(fmt::format("shard {}: published by the other process", k));
-      }
-      ++i;
-      continue;
-    }
-    if (!waiting_noted) {
-      note(fmt::format("waiting for {} shard(s) that other processes are rendering", held_elsewhere.size() - i));
-      waiting_noted = true;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-
-  if (options.queries && !stopped) {
-    const auto& catalog = sampler.library()->models();
-    std::set<int64_t> query_shards;
-    for (const std::string& key : models) {
-      const auto it = std::lower_bound(catalog.begin(), catalog.end(), key,
-                                       [](const AssetEntry& e, const std::string& k) { return e.key < k; });
-      if (it == catalog.end() || it->key != key) {
-        return CorruptError(fmt::format("{}: model {} is in the shards but not in the asset catalog", options.out.string(),
-                                        key));
-      }
-      query_shards.insert(static_cast<int64_t>(it - catalog.begin()) / options.query_shard_models);
-    }
-    for (int64_t q : query_shards) {
-      const Examined e = Examine(paths.query_shard(q), manifest, /*query=*/true, q, options.repair);
-      if (e.present && e.damage.empty()) {
-        ++report.query_shards_present;
-        continue;
-      }
-      if (e.present && !options.repair) return Refuse(paths.query_shard(q), e.damage);
-      if (CancelRequested(options.cancel)) {
-        stopped = true;
-        break;
-      }
-      if (e.present) {
-        note(fmt::format("query shard {}: {}: re-rendering it", q, e.damage));
-        SOLID_RETURN_IF_ERROR(ClearForRepair(paths.query_shard(q)));
-      }
-      const Status written = renderer.RenderQueryShard(q, e.present);
-      if (written.code() == StatusCode::kCancelled) {
-        stopped = true;
-        break;
-      }
-      if (written.code() == StatusCode::kAlreadyExists) {
-        ++report.query_shards_present;  // another process of the farm published the same bytes first
-        continue;
-      }
-      SOLID_RETURN_IF_ERROR(written);
-      ++report.query_shards_rendered;
-      if (e.present) ++report.query_shards_repaired;
-    }
-  }
-
-  // A stop that came during the last shard, which was worth finishing: no index is started.
-  if (stopped || CancelRequested(options.cancel)) {
-    for (int64_t k = first; k <= last && shard_count > 0; ++k) {
-      std::error_code missing_ec;
-      if (!fs::exists(paths.shard(k), missing_ec)) report.shards_missing.push_back(k);
-    }
-    // Stopped before the end; the index waits for the run that completes the dataset.
-    report.cancelled = true;
-    report.seconds = MillisecondsSince(start) / 1000;
-    report.peak_rss_bytes = PeakRssBytes();
-    return report;
-  }
-  SOLID_ASSIGN_OR_RETURN(ShardListing listing, ListShards(options.out));
-  if (static_cast<int64_t>(listing.targets.size()) == shard_count) {
-    SOLID_ASSIGN_OR_RETURN(IndexReport index, BuildIndex(options.out));
-    report.index_built = true;
+  SOLID_ASSIGN_OR_RETURN(const bool adopted, OpenDataset(options, manifest));
+  SOLID_ASSIGN_OR_RETURN(const ShardRange requested, RequestedShards(options, manifest));
+  DatasetRun run(sampler, options, manifest);
+  RenderReport& report = run.report();
+  report.adopted = adopted;
+  report.shards_requested = requested.last - requested.first + 1;
+  SOLID_ASSIGN_OR_RETURN(const std::vector<ShardTask> todo, ShardsToRender(run, requested));
+  SOLID_ASSIGN_OR_RETURN(const std::vector<ShardTask> held_elsewhere, RenderUnheldShards(run, todo));
+  SOLID_RETURN_IF_ERROR(AwaitShardsHeldElsewhere(run, held_elsewhere));
+  if (options.queries && !run.stopped) SOLID_RETURN_IF_ERROR(RenderQueryShards(run));
+  // A stop that came during the last shard, which was worth finishing, starts no index either.
+  if (run.stopped || CancelRequested(options.cancel)) {
+    ReportStop(run, requested);
+  } else {
+    SOLID_RETURN_IF_ERROR(IndexWhenComplete(run));
   }
   report.seconds = MillisecondsSince(start) / 1000;
   report.peak_rss_bytes = PeakRssBytes();

@@ -1,4 +1,4 @@
-#include "solid/render/room.h"
+#include "room.h"
 
 #include <embree3/rtcore.h>
 
@@ -143,7 +143,7 @@ Result<std::shared_ptr<const RoomShell>> RoomShell::FromAsset(std::shared_ptr<co
   }
   if (!has_floor) {
     return InvalidArgumentError(fmt::format("room {}: no piece with extras.structure \"floor\"; rooms need "
-                                            "walls, floors and ceilings marked by `solid convert`",
+                                            "walls, floors and ceilings marked by convert::Convert",
                                             room->key()));
   }
   const Vec3 size = hi - lo;

@@ -13,6 +13,7 @@
 
 #include "solid/formats/files.h"
 #include "solid/formats/workers.h"
+#include "room.h"
 #include "scene_export.h"
 
 namespace solid::render {

@@ -8,6 +8,7 @@
 
 #include "solid/formats/glb.h"
 #include "solid/render/shade.h"
+#include "room.h"
 
 namespace solid::render {
 namespace {

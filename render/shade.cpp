@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "instance_scene.h"
+#include "room.h"
 #include "shading.h"
 #include "solid/formats/random.h"
 #include "streams.h"

@@ -40,6 +40,17 @@ void Write(const fs::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
 }
 
+// A dataset of one shard of two images, without query shards.
+Status WriteSmallDataset(const fs::path& root) {
+  fixtures::LayeredDatasetOptions layered;
+  layered.images = 2;
+  layered.shard_size = 2;
+  layered.width = 32;
+  layered.height = 24;
+  layered.queries = false;
+  return fixtures::WriteLayeredDataset(root, layered);
+}
+
 struct BadInput {
   std::string name, command;
   int exit_code;
@@ -113,6 +124,17 @@ TEST(OptionErrors, EachCommandNamesTheFlagOfTheFieldItsLibraryCallRefused) {
         {"render --shard", Render(out, "--jobs 1 --shard 3"), 2, "solid: --shard: 3-3: the dataset has shards 0-0"}});
 }
 
+// Library text names a remedy by its call or options field ("BuildIndex builds it",
+// "RenderOptions::repair re-renders it"); the commands print the command that does it.
+TEST(OptionErrors, RemediesAreNamedAsTheCommandsThatDoThem) {
+  TempDir dir;
+  const fs::path unindexed = dir.path() / "d";
+  ASSERT_OK(WriteSmallDataset(unindexed));
+  fs::remove(DatasetPaths(unindexed).index());
+  Walk({{"validate", Solid("validate " + ShellQuote(unindexed.string())), 1, "no index (solid index builds it)"},
+        {"inspect", Solid("inspect " + ShellQuote(unindexed.string())), 0, "absent (solid index builds it)"}});
+}
+
 // The issue's F6: a params value over a schema limit exited 2, "preset": "nope" in a params
 // file 2 where --preset nope exits 3, validate of a missing path 1, index of a missing
 // dataset 4. README's table: 2 for flags, 3 for bad input, 1 for problems found.
@@ -123,13 +145,7 @@ TEST(Provenance, F6_EveryCommandExitsWithTheReadmesCode) {
   Write(over_limit, R"({"preset": "random-placement", "render": {"min_visible_pixels": 0}})");
   Write(unknown_preset, R"({"preset": "nope"})");
   const fs::path orphans = dir.path() / "orphans";  // shards, no manifest
-  fixtures::LayeredDatasetOptions layered;
-  layered.images = 2;
-  layered.shard_size = 2;
-  layered.width = 32;
-  layered.height = 24;
-  layered.queries = false;
-  ASSERT_OK(fixtures::WriteLayeredDataset(orphans, layered));
+  ASSERT_OK(WriteSmallDataset(orphans));
   fs::remove(DatasetPaths(orphans).manifest());
   const fs::path v1 = dir.path() / "v1";
   fs::copy(orphans, v1, fs::copy_options::recursive);

@@ -67,7 +67,7 @@ TEST(Calls, IndexAdoptsAManifestOnlyWhenAsked) {
   o.dataset = root;
   const Status refused = Index(o).status();
   EXPECT_EQ(refused.code(), StatusCode::kNotFound);
-  EXPECT_NE(refused.message().find("solid index --adopt"), std::string::npos) << refused.message();
+  EXPECT_NE(refused.message().find("adopting the shards (AdoptManifest)"), std::string::npos) << refused.message();
 
   o.adopt = true;
   Result<IndexReport> adopted = Index(o);

@@ -286,7 +286,7 @@ TEST(Validate, ReportsMissingIndexAndStrayFiles) {
   ValidationReport report = ValidateDataset(dir.path());
   ASSERT_EQ(report.problems.size(), 2u);
   EXPECT_NE(report.problems[0].location.find("notes.txt"), std::string::npos);
-  EXPECT_NE(report.problems[1].message.find("run solid index"), std::string::npos);
+  EXPECT_NE(report.problems[1].message.find("BuildIndex builds it"), std::string::npos);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "solid/formats/glb.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -555,6 +556,44 @@ TEST(GltfReader, RejectsBadIndicesAndLengths) {
   const json& view = zeros.gltf["bufferViews"][view_of(zeros.gltf)];
   std::fill_n(zeros.bin.begin() + view["byteOffset"].get<ptrdiff_t>(), view["byteLength"].get<size_t>(), 0);
   ExpectError(Pack(zeros), StatusCode::kCorrupt, {"meshes[0].primitives[1]: KHR_draco_mesh_compression", "Draco"});
+}
+
+// The accessors of a Draco primitive declare the decoded data: float VEC3 positions and
+// normals, float VEC2 texture coordinates, unsigned integer indices that hold every index.
+// A reader that trusted other declarations would size its buffers wrongly.
+TEST(GltfReader, DracoAccessorsDeclareWhatTheDecoderYields) {
+  const std::vector<uint8_t> glb = Write(TexturedAsset());
+  const Glb good = Unpack(glb);
+  // Primitive 1 is the torus, whose every decoded point is some face's corner.
+  const size_t torus_points = Read(glb).nodes[0].primitives[1].positions.size() / 3;
+  ASSERT_GT(torus_points, 255u) << "more than unsigned bytes can index";
+  auto edit = [&](size_t primitive, const std::string& semantic, const std::string& key, const json& value) {
+    Glb g = good;
+    const json& p = g.gltf["meshes"][0]["primitives"][primitive];
+    const size_t a = semantic == "indices" ? p["indices"].get<size_t>() : p["attributes"][semantic].get<size_t>();
+    g.gltf["accessors"][a][key] = value;
+    return std::pair(Pack(g), fmt::format("accessors[{}]: ", a));
+  };
+  auto expect_corrupt = [&](size_t primitive, const std::string& semantic, const std::string& key, const json& value,
+                            const std::string& says) {
+    const auto [bytes, accessor] = edit(primitive, semantic, key, value);
+    ExpectError(bytes, StatusCode::kCorrupt,
+                {fmt::format("meshes[0].primitives[{}]: {}{}", primitive, accessor, semantic), says});
+  };
+  expect_corrupt(1, "POSITION", "type", "VEC2", "type VEC2, but Draco decodes VEC3");
+  expect_corrupt(1, "NORMAL", "componentType", 5123, "componentType 5123, but Draco decodes floats (5126)");
+  expect_corrupt(1, "TEXCOORD_0", "type", "VEC3", "type VEC3, but Draco decodes VEC2");
+  // Plain accessors may hold TEXCOORD_0 as normalized bytes; Draco's are floats.
+  expect_corrupt(1, "TEXCOORD_0", "componentType", 5121, "componentType 5121, but Draco decodes floats");
+  expect_corrupt(1, "indices", "componentType", 5126, "componentType 5126, but Draco decodes unsigned integers");
+  expect_corrupt(1, "indices", "type", "VEC3", "type VEC3, but Draco decodes SCALAR");
+  expect_corrupt(
+      1, "indices", "componentType", 5121,
+      fmt::format("componentType 5121 holds indices below 255, but Draco decoded index {}", torus_points - 1));
+
+  // Unsigned bytes index the 24 vertices of the cube, and unsigned ints any mesh.
+  EXPECT_TRUE(ReadGlb(edit(0, "indices", "componentType", 5121).first, "cube.glb").ok());
+  EXPECT_TRUE(ReadGlb(edit(1, "indices", "componentType", 5125).first, "torus.glb").ok());
 }
 
 TEST(GltfReader, AccessorCountsOverTheLimitsAreRefusedBeforeDecoding) {

@@ -5,6 +5,7 @@
 
 #include "formats/test_util.h"
 #include "render/test_assets.h"
+#include "room.h"
 #include "solid/formats/rle.h"
 #include "solid/render/sample.h"
 

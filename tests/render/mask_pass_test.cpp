@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "render/test_assets.h"
+#include "room.h"
 #include "solid/formats/rle.h"
 #include "solid/render/mask_pass.h"
 #include "solid/render/sample.h"

@@ -77,7 +77,8 @@ TEST_F(Provenance, F1_ShardsWithoutAManifestAreRefusedUnlessAdopted) {
   fs::remove(DatasetPaths(ours_).manifest());
   const auto refused = RenderDataset(Sampler(), Tiny(ours_, 4, true));
   EXPECT_EQ(refused.status().code(), StatusCode::kNotFound);
-  EXPECT_TRUE(Says(refused.status(), "no manifest.json, but", "--adopt rebuilds the manifest")) << refused.status().message();
+  EXPECT_TRUE(Says(refused.status(), "no manifest.json, but", "RenderOptions::adopt rebuilds the manifest"))
+      << refused.status().message();
   EXPECT_FALSE(fs::exists(DatasetPaths(ours_).manifest()));
 
   RenderOptions adopt = Tiny(ours_, 4, true);
@@ -114,7 +115,7 @@ TEST_F(Provenance, F1_AShardOfAnotherDatasetIsRefusedAndRepaired) {
   EXPECT_TRUE(Says(refused.status(), "shard-000001.sqlite: not this dataset's shard",
                    "seed 0x0000000000000004 in the shard, 0x0000000000000003 in the manifest"))
       << refused.status().message();
-  EXPECT_TRUE(Says(refused.status(), "--repair")) << refused.status().message();
+  EXPECT_TRUE(Says(refused.status(), "RenderOptions::repair re-renders it")) << refused.status().message();
 
   RenderOptions repair = Tiny(ours_, 3, true);
   repair.repair = true;

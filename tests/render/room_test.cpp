@@ -1,5 +1,5 @@
 // Room shells: the lattice's floor and ceiling columns (solid-method.md 2.2).
-#include "solid/render/room.h"
+#include "room.h"
 
 #include <gtest/gtest.h>
 

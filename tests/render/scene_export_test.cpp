@@ -12,6 +12,7 @@
 #include "fixtures/gltf_validator.h"
 #include "formats/test_util.h"
 #include "render/test_assets.h"
+#include "room.h"
 #include "solid/formats/files.h"
 #include "solid/formats/glb.h"
 #include "solid/render/params.h"

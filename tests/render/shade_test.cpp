@@ -7,6 +7,7 @@
 #include <set>
 
 #include "render/test_assets.h"
+#include "room.h"
 #include "shading.h"
 #include "solid/render/mask_pass.h"
 #include "solid/render/sample.h"

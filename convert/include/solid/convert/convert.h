@@ -118,7 +118,7 @@ struct TextureLibraryReport {
 };
 
 struct ConvertReport {
-  int64_t assets = 0;      // considered (after filters and --limit)
+  int64_t assets = 0;      // considered (after filters and the limit)
   int64_t up_to_date = 0;  // skipped: the catalog row matches
   int64_t ok = 0, ok_with_warnings = 0, failed = 0;
   std::map<std::string, int64_t> failure_codes, warning_codes;

@@ -26,9 +26,12 @@
 #include "solid/render/assets.h"
 #include "solid/render/geometry.h"
 #include "solid/render/params.h"
-#include "solid/render/room.h"
 
 namespace solid::render {
+
+// The room a layout stands in, internal to the stage (render/room.h): a library user passes
+// it along with its layout but never looks into it.
+class RoomShell;
 
 // Pinhole camera for an image of width x height pixels with the given horizontal FOV,
 // at `eye` looking at `target` with no roll (its X axis stays horizontal). Camera
