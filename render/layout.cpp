@@ -68,8 +68,8 @@ Result<std::unique_ptr<LayoutSampler>> LayoutSampler::Create(const LayoutParams&
   if (params.scene == SceneKind::kWhiteCube) {
     SOLID_ASSIGN_OR_RETURN(s->white_cube_, RoomShell::WhiteCube(s->library_->device(), params));
   } else if (s->library_->rooms().empty()) {
-    return InvalidArgumentError("scene.kind is \"rooms\" but the rooms directory has no usable room; "
-                                "pass --rooms DIR (e.g. from `solid convert procedural` or `solid convert scenenet`)");
+    return InvalidArgumentError("scene.kind is \"rooms\" but the rooms directory has no usable room; give one "
+                                "that convert::Convert made from procedural or SceneNet rooms");
   }
   return s;
 }
