@@ -439,8 +439,11 @@ namespace {
 // render at --jobs 2, and the other worker's mask pass took half as long again.
 struct FilterScratch {
   FlatGuides guides;
-  std::vector<Vec3f> lighting, across;
-  std::vector<uint8_t> usable;
+  // FilterFlatLighting's planes, one value per pixel, so that its loops load kWidth
+  // neighbouring pixels at once: a pixel's surface where it is usable (else -1), its
+  // normal, its lighting, and the lighting's mean along its row.
+  std::vector<int32_t> key;
+  std::array<std::vector<float>, 3> normal, lighting, across;
 };
 
 FilterScratch& ThreadScratch() {
@@ -448,72 +451,144 @@ FilterScratch& ThreadScratch() {
   return scratch;
 }
 
+// Where FilterFlatLighting averages: pixels p + d * step for d in [lo, hi] of the pixels
+// p, p + 1, ..., that lie on their surfaces (see there). Sums go in ascending d, so that
+// every lane adds what the scalar mean (Average) adds in the same order.
+struct SurfacePlanes {
+  const int32_t* key;
+  const float* depth;
+  const float* normal[3];
+};
+
+// The mean of `in` over the pixels on usable pixel p's surface in [p + lo * step, p + hi * step].
+Vec3f Average(const SurfacePlanes& g, const std::array<std::vector<float>, 3>& in, size_t p, ptrdiff_t step, int lo,
+              int hi) {
+  Vec3f sum;
+  int n = 0;
+  for (int d = lo; d <= hi; ++d) {
+    const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
+    if (d != 0) {
+      const Vec3f nq{g.normal[0][q], g.normal[1][q], g.normal[2][q]}, np{g.normal[0][p], g.normal[1][p], g.normal[2][p]};
+      if (!(g.key[q] == g.key[p] &&
+            std::fabs(g.depth[q] - g.depth[p]) <= kDepthStep * static_cast<float>(std::abs(d)) * g.depth[p] &&
+            Dot(nq, np) >= kFilterNormalCos)) {
+        continue;
+      }
+    }
+    sum = sum + Vec3f{in[0][q], in[1][q], in[2][q]};
+    ++n;
+  }
+  return sum * (1.0f / static_cast<float>(n));
+}
+
+// Average for the kWidth pixels from p on, which share lo and hi; lanes whose pixel is not
+// usable hold a value nothing reads.
+void AverageLanes(const SurfacePlanes& g, const std::array<std::vector<float>, 3>& in, size_t p, ptrdiff_t step, int lo,
+                  int hi, Floats3* mean) {
+  auto load = [](const float* plane, size_t at) { return Floats(plane + at, stdx::element_aligned); };
+  auto load_key = [&](size_t at) { return Ints(g.key + at, stdx::element_aligned); };
+  const Ints kp = load_key(p);
+  const Floats dp = load(g.depth, p);
+  const Floats3 np{load(g.normal[0], p), load(g.normal[1], p), load(g.normal[2], p)};
+  Floats3 sum{0, 0, 0};
+  Floats n = 0;
+  for (int d = lo; d <= hi; ++d) {
+    const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
+    const Floats3 value{load(in[0].data(), q), load(in[1].data(), q), load(in[2].data(), q)};
+    if (d == 0) {
+      sum = sum + value;
+      n = n + 1;
+      continue;
+    }
+    // A nonzero integer converts to a nonzero float: the keys are equal where this is 0.
+    const FloatMask same = stdx::static_simd_cast<Floats>(load_key(q) ^ kp) == 0 &&
+                           stdx::abs(load(g.depth, q) - dp) <= kDepthStep * static_cast<float>(std::abs(d)) * dp &&
+                           Dot(Floats3{load(g.normal[0], q), load(g.normal[1], q), load(g.normal[2], q)}, np) >=
+                               kFilterNormalCos;
+    sum.Where(same, sum + value);
+    where(same, n) = n + 1;
+  }
+  *mean = sum * (1 / n);
+}
+
 }  // namespace
 
 void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
   const int width = film->width, height = film->height;
+  const size_t pixels = film->rgb.size() / 3;
   FilterScratch& scratch = ThreadScratch();
-  // Pixels without a surface, and dark base colours (whose lighting would be noise over
-  // a near-zero divisor), neither take nor give.
-  std::vector<uint8_t>& usable = scratch.usable;
-  usable.resize(film->rgb.size() / 3);
-  // Whether pixel q, `steps` pixels from usable pixel p along a row or a column, lies on p's surface.
-  auto same_surface = [&](size_t p, size_t q, int steps) {
-    return usable[q] && guides.surface[q] == guides.surface[p] &&
-           std::fabs(guides.depth[q] - guides.depth[p]) <= kDepthStep * static_cast<float>(steps) * guides.depth[p] &&
-           Dot(guides.normal[q], guides.normal[p]) >= kFilterNormalCos;
-  };
-  // Separable: a box of 2 kFlatFilterRadius + 1 pixels along rows, then along columns, each
-  // over the pixels on the same surface. On an open surface that is the square box; at
-  // its borders and around other objects it shrinks to what lies on the surface. Both
-  // passes go row by row, which keeps the column pass's reads in cache.
-  std::vector<Vec3f>& lighting = scratch.lighting;
-  std::vector<Vec3f>& across = scratch.across;
-  lighting.resize(film->rgb.size() / 3);
-  across.resize(film->rgb.size() / 3);
+  scratch.key.resize(pixels);
+  for (int k = 0; k < 3; ++k) {
+    scratch.normal[k].resize(pixels);
+    scratch.lighting[k].resize(pixels);
+    scratch.across[k].resize(pixels);
+  }
+  const SurfacePlanes g{scratch.key.data(),
+                        guides.depth.data(),
+                        {scratch.normal[0].data(), scratch.normal[1].data(), scratch.normal[2].data()}};
   auto rows = [&](const auto& row) {
     std::atomic<int> next{0};
     RunOnThreads(std::clamp(threads, 1, height), [&] {
       for (int y; (y = next.fetch_add(1, std::memory_order_relaxed)) < height;) row(y);
     });
   };
-  // Every usable pixel's entries are written before any is read.
+  // Pixels without a surface, and dark base colours (whose lighting would be noise over
+  // a near-zero divisor), neither take nor give: their key is -1, which no usable pixel's is.
   rows([&](int y) {
     for (size_t p = static_cast<size_t>(y) * width, end = p + width; p < end; ++p) {
       const Vec3f a = guides.albedo[p];
-      usable[p] = guides.surface[p] != kNoSurface && a.x > kDarkAlbedo && a.y > kDarkAlbedo && a.z > kDarkAlbedo;
-      if (!usable[p]) continue;
-      lighting[p] = {film->rgb[3 * p] / a.x, film->rgb[3 * p + 1] / a.y, film->rgb[3 * p + 2] / a.z};
+      const bool usable =
+          guides.surface[p] != kNoSurface && a.x > kDarkAlbedo && a.y > kDarkAlbedo && a.z > kDarkAlbedo;
+      scratch.key[p] = usable ? static_cast<int32_t>(guides.surface[p]) : -1;
+      const Vec3f n = usable ? guides.normal[p] : Vec3f{};
+      const Vec3f l = usable ? Vec3f{film->rgb[3 * p] / a.x, film->rgb[3 * p + 1] / a.y, film->rgb[3 * p + 2] / a.z}
+                             : Vec3f{};
+      scratch.normal[0][p] = n.x, scratch.normal[1][p] = n.y, scratch.normal[2][p] = n.z;
+      scratch.lighting[0][p] = l.x, scratch.lighting[1][p] = l.y, scratch.lighting[2][p] = l.z;
     }
   });
-  // The mean of `in` over the pixels on usable pixel p's surface within kFlatFilterRadius of
-  // it along its row (step 1, k = x) or column (step width, k = y) of `length` pixels.
-  auto line_mean = [&](const std::vector<Vec3f>& in, size_t p, int k, int length, ptrdiff_t step) {
-    Vec3f sum;
-    int n = 0;
-    for (int d = std::max(-kFlatFilterRadius, -k); d <= kFlatFilterRadius && k + d < length; ++d) {
-      const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
-      if (d != 0 && !same_surface(p, q, std::abs(d))) continue;
-      sum = sum + in[q];
-      ++n;
-    }
-    return sum * (1.0f / static_cast<float>(n));
-  };
+  // Separable: a box of 2 kFlatFilterRadius + 1 pixels along rows, then along columns, each
+  // over the pixels on the same surface. On an open surface that is the square box; at
+  // its borders and around other objects it shrinks to what lies on the surface. Both
+  // passes go row by row, which keeps the column pass's reads in cache.
+  constexpr int r = kFlatFilterRadius;
   rows([&](int y) {
-    for (int x = 0; x < width; ++x) {
-      const size_t p = static_cast<size_t>(y) * width + x;
-      if (usable[p]) across[p] = line_mean(lighting, p, x, width, 1);
+    const size_t row = static_cast<size_t>(y) * width;
+    auto scalar = [&](int x) {
+      const size_t p = row + x;
+      if (scratch.key[p] == -1) return;
+      const Vec3f mean = Average(g, scratch.lighting, p, 1, std::max(-r, -x), std::min(r, width - 1 - x));
+      scratch.across[0][p] = mean.x, scratch.across[1][p] = mean.y, scratch.across[2][p] = mean.z;
+    };
+    int x = 0;
+    for (; x < std::min(r, width); ++x) scalar(x);
+    // Whole vectors of pixels whose boxes lie inside the row.
+    for (; x + kWidth - 1 + r < width; x += kWidth) {
+      Floats3 mean;
+      AverageLanes(g, scratch.lighting, row + x, 1, -r, r, &mean);
+      mean.x.copy_to(&scratch.across[0][row + x], stdx::element_aligned);
+      mean.y.copy_to(&scratch.across[1][row + x], stdx::element_aligned);
+      mean.z.copy_to(&scratch.across[2][row + x], stdx::element_aligned);
     }
+    for (; x < width; ++x) scalar(x);
   });
   rows([&](int y) {
-    for (int x = 0; x < width; ++x) {
-      const size_t p = static_cast<size_t>(y) * width + x;
-      if (!usable[p]) continue;
-      const Vec3f radiance = line_mean(across, p, y, height, width) * guides.albedo[p];
+    const size_t row = static_cast<size_t>(y) * width;
+    const int lo = std::max(-r, -y), hi = std::min(r, height - 1 - y);
+    auto put = [&](size_t p, Vec3f mean) {
+      if (scratch.key[p] == -1) return;
+      const Vec3f radiance = mean * guides.albedo[p];
       film->rgb[3 * p] = radiance.x;
       film->rgb[3 * p + 1] = radiance.y;
       film->rgb[3 * p + 2] = radiance.z;
+    };
+    int x = 0;
+    for (; x + kWidth <= width; x += kWidth) {
+      Floats3 mean;
+      AverageLanes(g, scratch.across, row + x, width, lo, hi, &mean);
+      for (int k = 0; k < kWidth; ++k) put(row + x + k, {mean.x[k], mean.y[k], mean.z[k]});
     }
+    for (; x < width; ++x) put(row + x, Average(g, scratch.across, row + x, width, lo, hi));
   });
 }
 
