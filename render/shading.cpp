@@ -277,21 +277,21 @@ Result<DecodedTextures> DecodeTextures(const std::vector<gltf::Texture>& texture
     tex.width = static_cast<int>(img.width);
     tex.height = static_cast<int>(img.height);
     const size_t texels = static_cast<size_t>(img.width) * img.height;
-    tex.linear.assign(4 * texels, 0.0f);
+    tex.rgb.resize(3 * texels);
     double sum[3] = {0, 0, 0};
     for (size_t i = 0; i < texels; ++i) {
       const uint8_t* p = &img.pixels[i * img.channels];
       // Grey (+ alpha) images replicate their one colour channel; alpha is dropped.
       const bool grey = img.channels < 3;
       for (int c = 0; c < 3; ++c) {
-        const float v = SrgbToLinear(grey ? p[0] : p[c]);
-        tex.linear[4 * i + c] = v;
-        sum[c] += v;
+        const uint8_t v = grey ? p[0] : p[c];
+        tex.rgb[3 * i + c] = v;
+        sum[c] += SrgbToLinear(v);
       }
     }
     tex.mean_linear = {static_cast<float>(sum[0] / texels), static_cast<float>(sum[1] / texels),
                        static_cast<float>(sum[2] / texels)};
-    out.bytes += tex.linear.size() * sizeof(float);
+    out.bytes += tex.rgb.size();
     out.textures.push_back(std::move(tex));
   }
   return out;
@@ -314,11 +314,8 @@ Vec3f Factor(const gltf::Material* material) {
 
 namespace {
 
-// A texel's or a lookup's linear RGB and a zero (DecodedTextures::Texture::linear).
-using Texel = stdx::simd<float, stdx::simd_abi::deduce_t<float, 4>>;
-
 // The bilinear, repeating lookup of `tex` at uv, linear.
-Texel SampleTexture(const DecodedTextures::Texture& tex, float u, float v) {
+Vec3f SampleTexture(const DecodedTextures::Texture& tex, float u, float v) {
   if (!std::isfinite(u) || !std::isfinite(v)) u = v = 0;
   // glTF's uv (0, 0) is the top-left corner of the image; texel centres at +0.5.
   const float x = u * tex.width - 0.5f, y = v * tex.height - 0.5f;
@@ -338,21 +335,21 @@ Texel SampleTexture(const DecodedTextures::Texture& tex, float u, float v) {
   };
   const int x0 = wrap(fx0, tex.width), y0 = wrap(fy0, tex.height);
   const int x1 = x0 + 1 == tex.width ? 0 : x0 + 1, y1 = y0 + 1 == tex.height ? 0 : y0 + 1;
+  const std::array<float, 256>& lut = SrgbTable();
   auto texel = [&](int tx, int ty) {
-    return Texel(&tex.linear[4 * (static_cast<size_t>(ty) * tex.width + tx)], stdx::vector_aligned);
+    const uint8_t* p = &tex.rgb[3 * (static_cast<size_t>(ty) * tex.width + tx)];
+    return Vec3f{lut[p[0]], lut[p[1]], lut[p[2]]};
   };
-  const Texel top = texel(x0, y0) * (1 - ax) + texel(x1, y0) * ax;
-  const Texel bottom = texel(x0, y1) * (1 - ax) + texel(x1, y1) * ax;
+  const Vec3f top = texel(x0, y0) * (1 - ax) + texel(x1, y0) * ax;
+  const Vec3f bottom = texel(x0, y1) * (1 - ax) + texel(x1, y1) * ax;
   return top * (1 - ay) + bottom * ay;
 }
-
-Vec3f ToVec3f(const Texel& t) { return {t[0], t[1], t[2]}; }
 
 }  // namespace
 
 Vec3f BaseColor(const gltf::Material* material, const DecodedTextures* textures, float u, float v) {
   const DecodedTextures::Texture* tex = TextureOf(material, textures);
-  return tex == nullptr ? Factor(material) : Factor(material) * ToVec3f(SampleTexture(*tex, u, v));
+  return tex == nullptr ? Factor(material) : Factor(material) * SampleTexture(*tex, u, v);
 }
 
 Vec3f MeanBaseColor(const gltf::Material* material, const DecodedTextures* textures) {
@@ -395,15 +392,15 @@ Vec3f FootprintBaseColor(const Hit& h, Vec3f eye, Vec3f dir_dx, Vec3f dir_dy) {
   const float reach_u = (std::fabs(dux) + std::fabs(duy)) * 0.25f * static_cast<float>(tex->width);
   const float reach_v = (std::fabs(dvx) + std::fabs(dvy)) * 0.25f * static_cast<float>(tex->height);
   if (reach_u < kFootprintTexels && reach_v < kFootprintTexels) {
-    return Factor(t.material) * ToVec3f(SampleTexture(*tex, h.u, h.v));
+    return Factor(t.material) * SampleTexture(*tex, h.u, h.v);
   }
-  Texel sum = 0;
+  Vec3f sum;
   for (const float sx : {-0.25f, 0.25f}) {
     for (const float sy : {-0.25f, 0.25f}) {
       sum = sum + SampleTexture(*tex, h.u + sx * dux + sy * duy, h.v + sx * dvx + sy * dvy);
     }
   }
-  return Factor(t.material) * ToVec3f(sum * 0.25f);
+  return Factor(t.material) * (sum * 0.25f);
 }
 
 }  // namespace
@@ -471,8 +468,7 @@ Vec3f Average(const SurfacePlanes& g, const std::array<std::vector<float>, 3>& i
   for (int d = lo; d <= hi; ++d) {
     const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
     if (d != 0) {
-      const Vec3f nq{g.normal[0][q], g.normal[1][q], g.normal[2][q]};
-      const Vec3f np{g.normal[0][p], g.normal[1][p], g.normal[2][p]};
+      const Vec3f nq{g.normal[0][q], g.normal[1][q], g.normal[2][q]}, np{g.normal[0][p], g.normal[1][p], g.normal[2][p]};
       if (!(g.key[q] == g.key[p] &&
             std::fabs(g.depth[q] - g.depth[p]) <= kDepthStep * static_cast<float>(std::abs(d)) * g.depth[p] &&
             Dot(nq, np) >= kFilterNormalCos)) {

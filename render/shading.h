@@ -31,14 +31,11 @@ inline float Dot(Vec3f a, Vec3f b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 inline Vec3f Cross(Vec3f a, Vec3f b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 inline Vec3f ToFloat(Vec3 v) { return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)}; }
 
-// Textures of one asset, linear, with their mean colour.
+// Textures of one asset, 8-bit sRGB RGB, with their mean linear colour.
 struct DecodedTextures {
   struct Texture {
     int width = 0, height = 0;
-    // Per texel its sRGB values decoded (SrgbToLinear) and a zero, row-major: a texel is one
-    // 16-byte load, where a lookup of three bytes in the decoding table per channel took
-    // a fifth of a flat pixel's time. Five and a third times the memory of the 8-bit texels.
-    std::vector<float> linear;
+    std::vector<uint8_t> rgb;
     Vec3f mean_linear;
   };
   std::vector<Texture> textures;
