@@ -78,15 +78,17 @@ inline Floats3 Normalized(const Floats3& v) {
   return unit;
 }
 
-// Embree's masks (-1: the lane takes part) and ids at lane c, as masks of Floats. A
-// nonzero integer converts to a nonzero float, so the tests are exact.
+// Embree's masks (-1: the lane takes part) and ids at lane c, as masks of Floats, read as
+// float bits without a conversion: -1 (all ones) is a NaN, which compares unequal to
+// everything, itself included; 0 is 0; an id below 2^31 - 2^23 is a number or 0.
 inline FloatMask IsSet(const int* mask, int c) {
-  return stdx::static_simd_cast<Floats>(Ints(mask + c, stdx::vector_aligned)) != 0;
+  return std::bit_cast<Floats>(Ints(mask + c, stdx::vector_aligned)) != 0;
 }
 inline FloatMask IsHit(const unsigned* geometry_ids, int c) {
-  const Ints ids(reinterpret_cast<const int32_t*>(geometry_ids) + c, stdx::vector_aligned);
   static_assert(static_cast<int32_t>(RTC_INVALID_GEOMETRY_ID) == -1);
-  return stdx::static_simd_cast<Floats>(ids + 1) != 0;
+  const Ints bits(reinterpret_cast<const int32_t*>(geometry_ids) + c, stdx::vector_aligned);
+  const Floats ids = std::bit_cast<Floats>(bits);
+  return ids == ids;
 }
 inline void StoreMask(const FloatMask& m, int* mask, int c) {
   const Ints bits([&](auto k) { return m[k] ? -1 : 0; });

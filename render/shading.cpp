@@ -478,7 +478,8 @@ Vec3f Average(const SurfacePlanes& g, const std::array<std::vector<float>, 3>& i
   for (int d = lo; d <= hi; ++d) {
     const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
     if (d != 0) {
-      const Vec3f nq{g.normal[0][q], g.normal[1][q], g.normal[2][q]}, np{g.normal[0][p], g.normal[1][p], g.normal[2][p]};
+      const Vec3f nq{g.normal[0][q], g.normal[1][q], g.normal[2][q]};
+      const Vec3f np{g.normal[0][p], g.normal[1][p], g.normal[2][p]};
       if (!(g.key[q] == g.key[p] &&
             std::fabs(g.depth[q] - g.depth[p]) <= kDepthStep * static_cast<float>(std::abs(d)) * g.depth[p] &&
             Dot(nq, np) >= kFilterNormalCos)) {
@@ -793,6 +794,11 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             // intensity P / (4 pi^2). Inactive lanes hold stale values and are masked.
             const float power = area ? light.power_w / 4 : light.power_w / (4 * kPi * kPi);
             for (int c = 0; c < kLanes; c += kWidth) {
+              const FloatMask active_lanes = IsSet(active, c);
+              if (stdx::none_of(active_lanes)) {
+                StoreMask(active_lanes, valid, c);
+                continue;
+              }
               const Floats3 origin = Load3(columns.origin, c);
               Floats3 point = Splat3(light.position);
               if (area) {
@@ -808,7 +814,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
               // Below the geometric surface the shadow ray would hit its own triangle.
               const Floats cos_g = Dot(Load3(columns.ng, c), w);
               const Floats cos_l = -Dot(Splat3(light.normal), w);
-              FloatMask lit = IsSet(active, c) && !(cos_s <= 0) && !(cos_g <= 0);
+              FloatMask lit = active_lanes && !(cos_s <= 0) && !(cos_g <= 0);
               if (area) lit = lit && !(cos_l <= 0);
               StoreMask(lit, valid, c);
               Store((area ? power * cos_l : Floats(power)) * cos_s / d2, irradiance, c);
@@ -827,6 +833,8 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             for (int c = 0; c < kLanes; c += kWidth) {
               FloatMask lit = IsSet(valid, c);
               if (shadowed) lit = lit && !(Load(shadow.tfar, c) < 0);
+              // Lanes the light does not reach (shadowed, facing away, no hit) add nothing.
+              if (stdx::none_of(lit)) continue;
               const Floats3 n = Load3(columns.n, c);
               const Floats3 half = Normalized(Load3(wi, c) + Load3(columns.wo, c));
               Floats cos_h = Dot(n, half);
@@ -848,11 +856,16 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
           }
           const float range = scene.ambient_occlusion_m;
           for (int c = 0; c < kLanes; c += kWidth) {
+            const FloatMask lit = IsSet(valid, c);
+            if (stdx::none_of(lit)) {
+              StoreMask(lit, traced, c);
+              continue;
+            }
             const Floats3 n = Load3(columns.n, c);
             const Floats a0 = Load(draw[0], c), a1 = Load(draw[1], c);
             const Floats3 wa = CosineDirection(n, a0, a1);
             // A direction under the geometric surface (smooth-shaded silhouettes) counts as open.
-            StoreMask(IsSet(valid, c) && !(Dot(wa, Load3(columns.ng, c)) <= 0), traced, c);
+            StoreMask(lit && !(Dot(wa, Load3(columns.ng, c)) <= 0), traced, c);
             Store3(Load3(columns.origin, c), rays.ray.org_x, rays.ray.org_y, rays.ray.org_z, c);
             Store3(wa, rays.ray.dir_x, rays.ray.dir_y, rays.ray.dir_z, c);
             Store(Floats(0), rays.ray.tnear, c);
