@@ -771,8 +771,10 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   if (options.shading.sampling == Sampling::kAdaptive) render["sampling"] = "adaptive-filtered-3";
   // The shader's arithmetic, for every image and query view: 2 since 2026-12-03 (evening),
   // when hit points came to be interpolated between world-space corners (the values differ
-  // in the last bits, some 8-bit values by one); before, no key.
-  render["shading"] = 2;
+  // in the last bits, some 8-bit values by one); before, no key. 3 since issue 44: the
+  // specular lobe's power and the ambient rays' directions from the shader's own vector
+  // math (render/lanes.h) instead of std::pow, std::cos and std::sin.
+  render["shading"] = 3;
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;

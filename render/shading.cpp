@@ -10,6 +10,7 @@
 
 #include "solid/formats/random.h"
 #include "instance_scene.h"
+#include "lanes.h"
 #include "streams.h"
 #include "solid/formats/workers.h"
 
@@ -56,15 +57,6 @@ struct Frame3f {
   }
 };
 
-// An orthonormal basis around unit n (Duff et al. 2017, branchless).
-void Basis(Vec3f n, Vec3f* t, Vec3f* b) {
-  const float sign = std::copysign(1.0f, n.z);
-  const float a = -1.0f / (sign + n.z);
-  const float c = n.x * n.y * a;
-  *t = {1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x};
-  *b = {c, sign + n.y * n.y * a, -n.y};
-}
-
 // The strata of n samples: the most square nx x ny = n.
 void Strata(int n, int* nx, int* ny) {
   int x = static_cast<int>(std::sqrt(static_cast<double>(n)));
@@ -73,23 +65,18 @@ void Strata(int n, int* nx, int* ny) {
   *ny = n / x;
 }
 
-// A point on `light`: its centre, or on an area light the point of strata sample a.
-Vec3f LightPoint(const ShadingLight& light, std::array<float, 2> a) {
-  return light.position + light.u_axis * (2 * a[0] - 1) + light.v_axis * (2 * a[1] - 1);
-}
-
-// A single sample brighter than kMaxSampleRadiance would whiten its pixel alone (a firefly).
-Vec3f Clamped(Vec3f radiance) {
-  return {std::min(radiance.x, kMaxSampleRadiance), std::min(radiance.y, kMaxSampleRadiance),
-          std::min(radiance.z, kMaxSampleRadiance)};
-}
-
-// A direction of the cosine-weighted hemisphere around unit n, from sample a.
-Vec3f CosineDirection(Vec3f n, std::array<float, 2> a) {
-  const float r = std::sqrt(a[0]), phi = 2 * kPi * a[1];
-  Vec3f t, b;
-  Basis(n, &t, &b);
-  return t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * std::sqrt(1 - a[0]);
+// A direction of the cosine-weighted hemisphere around unit n, from sample (a0, a1), in
+// an orthonormal basis around n (Duff et al. 2017, branchless).
+Floats3 CosineDirection(const Floats3& n, const Floats& a0, const Floats& a1) {
+  const Floats r = stdx::sqrt(a0);
+  const Floats sign = stdx::copysign(Floats(1), n.z);
+  const Floats a = -1 / (sign + n.z);
+  const Floats c = n.x * n.y * a;
+  const Floats3 t{1 + sign * n.x * n.x * a, sign * c, -sign * n.x};
+  const Floats3 b{c, sign + n.y * n.y * a, -n.y};
+  Floats cos_phi, sin_phi;
+  CosSinTurn(a1, &cos_phi, &sin_phi);
+  return t * (r * cos_phi) + b * (r * sin_phi) + n * stdx::sqrt(1 - a0);
 }
 
 struct SurfaceFrames {
@@ -192,11 +179,6 @@ Hit Surface(const WorldTriangle& t, float b1, float b2, Vec3f dir) {
   return h;
 }
 
-// Pixels are traced in kTile x kTile tiles, one 16-ray packet per tile and sample for
-// the camera rays, then one per light for the shadow rays and one for the ambient
-// rays: a tile's rays are coherent enough that packets beat single rays by far.
-constexpr int kTile = 4;
-constexpr int kLanes = kTile * kTile;
 void SetRayHit(RTCRayHit16* r, int i, Vec3f origin, Vec3f dir, float tnear, float tfar) {
   SetRayLane(&r->ray, i, origin, dir, tnear, tfar);
   r->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
@@ -258,12 +240,22 @@ class PixelSampler {
 
 float SrgbToLinear(uint8_t v) { return SrgbTable()[v]; }
 
-float ToneMap(float v) {
+namespace {
+
+// ToneMap of kWidth values at once (EncodeFilm's 921,600 per 640x480 image).
+Floats ToneMapLanes(const Floats& v) {
   // Narkowicz's fit of the ACES filmic curve: highlights roll off instead of
   // clipping, as under the reference's Filmic view transform.
-  if (!(v > 0)) return 0;
-  return std::min(1.0f, (v * (2.51f * v + 0.03f)) / (v * (2.43f * v + 0.59f) + 0.14f));
+  const Floats curve = (v * (2.51f * v + 0.03f)) / (v * (2.43f * v + 0.59f) + 0.14f);
+  Floats out = 1;
+  where(curve < 1, out) = curve;
+  where(!(v > 0), out) = 0;
+  return out;
 }
+
+}  // namespace
+
+float ToneMap(float v) { return ToneMapLanes(Floats(v))[0]; }
 
 uint8_t LinearToSrgb8(float v) {
   if (!(v > 0)) return 0;
@@ -457,8 +449,11 @@ namespace {
 // render at --jobs 2, and the other worker's mask pass took half as long again.
 struct FilterScratch {
   FlatGuides guides;
-  std::vector<Vec3f> lighting, across;
-  std::vector<uint8_t> usable;
+  // FilterFlatLighting's planes, one value per pixel, so that its loops load kWidth
+  // neighbouring pixels at once: a pixel's surface where it is usable (else -1), its
+  // normal, its lighting, and the lighting's mean along its row.
+  std::vector<int32_t> key;
+  std::array<std::vector<float>, 3> normal, lighting, across;
 };
 
 FilterScratch& ThreadScratch() {
@@ -466,72 +461,145 @@ FilterScratch& ThreadScratch() {
   return scratch;
 }
 
+// Where FilterFlatLighting averages: pixels p + d * step for d in [lo, hi] of the pixels
+// p, p + 1, ..., that lie on their surfaces (see there). Sums go in ascending d, so that
+// every lane adds what the scalar mean (Average) adds in the same order.
+struct SurfacePlanes {
+  const int32_t* key;
+  const float* depth;
+  const float* normal[3];
+};
+
+// The mean of `in` over the pixels on usable pixel p's surface in [p + lo * step, p + hi * step].
+Vec3f Average(const SurfacePlanes& g, const std::array<std::vector<float>, 3>& in, size_t p, ptrdiff_t step, int lo,
+              int hi) {
+  Vec3f sum;
+  int n = 0;
+  for (int d = lo; d <= hi; ++d) {
+    const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
+    if (d != 0) {
+      const Vec3f nq{g.normal[0][q], g.normal[1][q], g.normal[2][q]};
+      const Vec3f np{g.normal[0][p], g.normal[1][p], g.normal[2][p]};
+      if (!(g.key[q] == g.key[p] &&
+            std::fabs(g.depth[q] - g.depth[p]) <= kDepthStep * static_cast<float>(std::abs(d)) * g.depth[p] &&
+            Dot(nq, np) >= kFilterNormalCos)) {
+        continue;
+      }
+    }
+    sum = sum + Vec3f{in[0][q], in[1][q], in[2][q]};
+    ++n;
+  }
+  return sum * (1.0f / static_cast<float>(n));
+}
+
+// Average for the kWidth pixels from p on, which share lo and hi; lanes whose pixel is not
+// usable hold a value nothing reads.
+void AverageLanes(const SurfacePlanes& g, const std::array<std::vector<float>, 3>& in, size_t p, ptrdiff_t step, int lo,
+                  int hi, Floats3* mean) {
+  auto load = [](const float* plane, size_t at) { return Floats(plane + at, stdx::element_aligned); };
+  auto load_key = [&](size_t at) { return Ints(g.key + at, stdx::element_aligned); };
+  const Ints kp = load_key(p);
+  const Floats dp = load(g.depth, p);
+  const Floats3 np{load(g.normal[0], p), load(g.normal[1], p), load(g.normal[2], p)};
+  Floats3 sum{0, 0, 0};
+  Floats n = 0;
+  for (int d = lo; d <= hi; ++d) {
+    const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
+    const Floats3 value{load(in[0].data(), q), load(in[1].data(), q), load(in[2].data(), q)};
+    if (d == 0) {
+      sum = sum + value;
+      n = n + 1;
+      continue;
+    }
+    // A nonzero integer converts to a nonzero float: the keys are equal where this is 0.
+    const FloatMask same = stdx::static_simd_cast<Floats>(load_key(q) ^ kp) == 0 &&
+                           stdx::abs(load(g.depth, q) - dp) <= kDepthStep * static_cast<float>(std::abs(d)) * dp &&
+                           Dot(Floats3{load(g.normal[0], q), load(g.normal[1], q), load(g.normal[2], q)}, np) >=
+                               kFilterNormalCos;
+    sum.Where(same, sum + value);
+    where(same, n) = n + 1;
+  }
+  *mean = sum * (1 / n);
+}
+
 }  // namespace
 
 void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film) {
   const int width = film->width, height = film->height;
+  const size_t pixels = film->rgb.size() / 3;
   FilterScratch& scratch = ThreadScratch();
-  // Pixels without a surface, and dark base colours (whose lighting would be noise over
-  // a near-zero divisor), neither take nor give.
-  std::vector<uint8_t>& usable = scratch.usable;
-  usable.resize(film->rgb.size() / 3);
-  // Whether pixel q, `steps` pixels from usable pixel p along a row or a column, lies on p's surface.
-  auto same_surface = [&](size_t p, size_t q, int steps) {
-    return usable[q] && guides.surface[q] == guides.surface[p] &&
-           std::fabs(guides.depth[q] - guides.depth[p]) <= kDepthStep * static_cast<float>(steps) * guides.depth[p] &&
-           Dot(guides.normal[q], guides.normal[p]) >= kFilterNormalCos;
-  };
-  // Separable: a box of 2 kFlatFilterRadius + 1 pixels along rows, then along columns, each
-  // over the pixels on the same surface. On an open surface that is the square box; at
-  // its borders and around other objects it shrinks to what lies on the surface. Both
-  // passes go row by row, which keeps the column pass's reads in cache.
-  std::vector<Vec3f>& lighting = scratch.lighting;
-  std::vector<Vec3f>& across = scratch.across;
-  lighting.resize(film->rgb.size() / 3);
-  across.resize(film->rgb.size() / 3);
+  scratch.key.resize(pixels);
+  for (int k = 0; k < 3; ++k) {
+    scratch.normal[k].resize(pixels);
+    scratch.lighting[k].resize(pixels);
+    scratch.across[k].resize(pixels);
+  }
+  const SurfacePlanes g{scratch.key.data(),
+                        guides.depth.data(),
+                        {scratch.normal[0].data(), scratch.normal[1].data(), scratch.normal[2].data()}};
   auto rows = [&](const auto& row) {
     std::atomic<int> next{0};
     RunOnThreads(std::clamp(threads, 1, height), [&] {
       for (int y; (y = next.fetch_add(1, std::memory_order_relaxed)) < height;) row(y);
     });
   };
-  // Every usable pixel's entries are written before any is read.
+  // Pixels without a surface, and dark base colours (whose lighting would be noise over
+  // a near-zero divisor), neither take nor give: their key is -1, which no usable pixel's is.
   rows([&](int y) {
     for (size_t p = static_cast<size_t>(y) * width, end = p + width; p < end; ++p) {
       const Vec3f a = guides.albedo[p];
-      usable[p] = guides.surface[p] != kNoSurface && a.x > kDarkAlbedo && a.y > kDarkAlbedo && a.z > kDarkAlbedo;
-      if (!usable[p]) continue;
-      lighting[p] = {film->rgb[3 * p] / a.x, film->rgb[3 * p + 1] / a.y, film->rgb[3 * p + 2] / a.z};
+      const bool usable =
+          guides.surface[p] != kNoSurface && a.x > kDarkAlbedo && a.y > kDarkAlbedo && a.z > kDarkAlbedo;
+      scratch.key[p] = usable ? static_cast<int32_t>(guides.surface[p]) : -1;
+      const Vec3f n = usable ? guides.normal[p] : Vec3f{};
+      const Vec3f l = usable ? Vec3f{film->rgb[3 * p] / a.x, film->rgb[3 * p + 1] / a.y, film->rgb[3 * p + 2] / a.z}
+                             : Vec3f{};
+      scratch.normal[0][p] = n.x, scratch.normal[1][p] = n.y, scratch.normal[2][p] = n.z;
+      scratch.lighting[0][p] = l.x, scratch.lighting[1][p] = l.y, scratch.lighting[2][p] = l.z;
     }
   });
-  // The mean of `in` over the pixels on usable pixel p's surface within kFlatFilterRadius of
-  // it along its row (step 1, k = x) or column (step width, k = y) of `length` pixels.
-  auto line_mean = [&](const std::vector<Vec3f>& in, size_t p, int k, int length, ptrdiff_t step) {
-    Vec3f sum;
-    int n = 0;
-    for (int d = std::max(-kFlatFilterRadius, -k); d <= kFlatFilterRadius && k + d < length; ++d) {
-      const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
-      if (d != 0 && !same_surface(p, q, std::abs(d))) continue;
-      sum = sum + in[q];
-      ++n;
-    }
-    return sum * (1.0f / static_cast<float>(n));
-  };
+  // Separable: a box of 2 kFlatFilterRadius + 1 pixels along rows, then along columns, each
+  // over the pixels on the same surface. On an open surface that is the square box; at
+  // its borders and around other objects it shrinks to what lies on the surface. Both
+  // passes go row by row, which keeps the column pass's reads in cache.
+  constexpr int r = kFlatFilterRadius;
   rows([&](int y) {
-    for (int x = 0; x < width; ++x) {
-      const size_t p = static_cast<size_t>(y) * width + x;
-      if (usable[p]) across[p] = line_mean(lighting, p, x, width, 1);
+    const size_t row = static_cast<size_t>(y) * width;
+    auto scalar = [&](int x) {
+      const size_t p = row + x;
+      if (scratch.key[p] == -1) return;
+      const Vec3f mean = Average(g, scratch.lighting, p, 1, std::max(-r, -x), std::min(r, width - 1 - x));
+      scratch.across[0][p] = mean.x, scratch.across[1][p] = mean.y, scratch.across[2][p] = mean.z;
+    };
+    int x = 0;
+    for (; x < std::min(r, width); ++x) scalar(x);
+    // Whole vectors of pixels whose boxes lie inside the row.
+    for (; x + kWidth - 1 + r < width; x += kWidth) {
+      Floats3 mean;
+      AverageLanes(g, scratch.lighting, row + x, 1, -r, r, &mean);
+      mean.x.copy_to(&scratch.across[0][row + x], stdx::element_aligned);
+      mean.y.copy_to(&scratch.across[1][row + x], stdx::element_aligned);
+      mean.z.copy_to(&scratch.across[2][row + x], stdx::element_aligned);
     }
+    for (; x < width; ++x) scalar(x);
   });
   rows([&](int y) {
-    for (int x = 0; x < width; ++x) {
-      const size_t p = static_cast<size_t>(y) * width + x;
-      if (!usable[p]) continue;
-      const Vec3f radiance = line_mean(across, p, y, height, width) * guides.albedo[p];
+    const size_t row = static_cast<size_t>(y) * width;
+    const int lo = std::max(-r, -y), hi = std::min(r, height - 1 - y);
+    auto put = [&](size_t p, Vec3f mean) {
+      if (scratch.key[p] == -1) return;
+      const Vec3f radiance = mean * guides.albedo[p];
       film->rgb[3 * p] = radiance.x;
       film->rgb[3 * p + 1] = radiance.y;
       film->rgb[3 * p + 2] = radiance.z;
+    };
+    int x = 0;
+    for (; x + kWidth <= width; x += kWidth) {
+      Floats3 mean;
+      AverageLanes(g, scratch.across, row + x, width, lo, hi, &mean);
+      for (int k = 0; k < kWidth; ++k) put(row + x + k, {mean.x[k], mean.y[k], mean.z[k]});
     }
+    for (; x < width; ++x) put(row + x, Average(g, scratch.across, row + x, width, lo, hi));
   });
 }
 
@@ -579,23 +647,20 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
   std::atomic<int> next_row{0};
   std::atomic<uint64_t> total_rays{0};
 
-  // What one lane (pixel) carries from its camera ray's hit to its light and ambient rays.
+  // What one lane (pixel) carries from its camera ray's hit to its light and ambient rays
+  // that the loops over lanes do not read in columns (LaneColumns).
   struct Lane {
-    Vec3f sum, radiance, diffuse, f0, n, ng, wo, origin, ambient, base;
-    float exponent = 0, specular_norm = 0, depth = 0;
+    Vec3f base;
+    float depth = 0;
     uint32_t instance = 0;
     int samples = 0;
     bool covered = false, ambient_lit = false, edge = true;
+  };
 
-    // Light arriving along wi with this irradiance, reflected towards the camera.
-    Vec3f Reflected(Vec3f wi, float irradiance) const {
-      const Vec3f half = Normalized(wi + wo);
-      const float spec = specular_norm * std::pow(std::max(Dot(n, half), 0.0f), exponent);
-      return (diffuse + f0 * spec) * irradiance;
-    }
-    // Obscurance rather than binary occlusion: a blocker at distance t lets t / range
-    // through (open = t / range), which is much less noisy at a few rays per pixel.
-    Vec3f Ambient(float open) const { return diffuse * (kPi * open) * ambient; }
+  // What the loops over lanes read of each lane, in columns (lanes.h).
+  struct LaneColumns {
+    alignas(64) Column3 sum, radiance, diffuse, f0, n, ng, wo, origin, ambient;
+    alignas(64) Column exponent, specular_norm;
   };
 
   auto work = [&] {
@@ -610,9 +675,10 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
     std::vector<Rng> rngs(kLanes, Rng(0, kShadingStream));
     TriangleCache triangles;
     std::array<Lane, kLanes> lanes;
+    LaneColumns columns{};
     alignas(64) int inside[kLanes], hit[kLanes], active[kLanes], valid[kLanes], traced[kLanes];
     bool known[kLanes];
-    alignas(64) float wi[3][kLanes], irradiance[kLanes];
+    alignas(64) float wi[3][kLanes], irradiance[kLanes], draw[2][kLanes];
     RTCRayHit16 rays;
     RTCRay16 shadow;
     // The shadow rays' fields that never change; the loop over the lights sets the rest.
@@ -631,7 +697,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
           if (!inside[i]) continue;
           rngs[i] = Rng(MixSeed(seed, static_cast<size_t>(y) * width + x), kShadingStream);
           // The rest of a lane is written by its hit before anything reads it.
-          lanes[i].sum = {};
+          for (int k = 0; k < 3; ++k) columns.sum[k][i] = 0;
           lanes[i].covered = false;
           lanes[i].edge = !adaptive || sampling.edges[static_cast<size_t>(y) * width + x] != 0;
           lanes[i].samples = lanes[i].edge ? spp : flat_spp;
@@ -667,11 +733,13 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             if (traced[i]) hit[i] = rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
             if (known[i]) hit[i] = centre->surface != MaskPassResult::CentreHit::kNothing ? -1 : 0;
             if (!hit[i]) {
-              lane.sum = lane.sum + scene.background;
+              columns.sum[0][i] += scene.background.x;
+              columns.sum[1][i] += scene.background.y;
+              columns.sum[2][i] += scene.background.z;
               continue;
             }
             active[i] = -1;
-            lane.radiance = {};
+            for (int k = 0; k < 3; ++k) columns.radiance[k][i] = 0;
             if (!traced[i] && !known[i]) continue;
             lane.covered = true;
             lane.instance = known[i] ? centre->surface : rays.hit.instID[0][i];
@@ -693,98 +761,143 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             const gltf::Material* material = triangle.material;
             const float metallic = material != nullptr ? std::clamp(material->metallic, 0.0f, 1.0f) : 0.0f;
             const float roughness = material != nullptr ? std::clamp(material->roughness, 0.0f, 1.0f) : 1.0f;
-            lane.diffuse = lane.base * ((1 - metallic) / kPi);
-            lane.f0 = Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + lane.base * metallic;
+            const Vec3f diffuse = lane.base * ((1 - metallic) / kPi);
             const float alpha2 = std::max(roughness * roughness * roughness * roughness, 1e-6f);
-            lane.exponent = std::clamp(2.0f / alpha2 - 2.0f, 1.0f, kMaxSpecularExponent);
-            lane.specular_norm = (lane.exponent + 8) / (8 * kPi);
-            lane.n = h.shading_normal;
-            lane.ng = h.geometric_normal;
-            lane.wo = dir * -1.0f;
+            const float exponent = std::clamp(2.0f / alpha2 - 2.0f, 1.0f, kMaxSpecularExponent);
             const float extent = std::max({std::fabs(h.position.x), std::fabs(h.position.y), std::fabs(h.position.z)});
-            lane.origin = h.position + lane.ng * (1e-4f * (1 + extent));
-            lane.ambient = scene.ambient + scene.sky * ((1 + lane.n.z) / 2);
-            lane.ambient_lit = Dot(lane.ambient, lane.ambient) > 0 && Dot(lane.diffuse, lane.diffuse) > 0;
+            const Vec3f ambient = scene.ambient + scene.sky * ((1 + h.shading_normal.z) / 2);
+            lane.ambient_lit = Dot(ambient, ambient) > 0 && Dot(diffuse, diffuse) > 0;
+            SetLane(columns.diffuse, i, diffuse);
+            SetLane(columns.f0, i, Vec3f{0.04f, 0.04f, 0.04f} * (1 - metallic) + lane.base * metallic);
+            columns.exponent[i] = exponent;
+            columns.specular_norm[i] = (exponent + 8) / (8 * kPi);
+            SetLane(columns.n, i, h.shading_normal);
+            SetLane(columns.ng, i, h.geometric_normal);
+            SetLane(columns.wo, i, dir * -1.0f);
+            SetLane(columns.origin, i, h.position + h.geometric_normal * (1e-4f * (1 + extent)));
+            SetLane(columns.ambient, i, ambient);
           }
           if (!AnyValid(active)) continue;
-          // The lanes' ray origins and normals in columns, for the loop over the lanes below,
-          // which has no branches: the lanes' square roots and divisions then overlap instead
-          // of waiting on a mispredicted early return each (inactive lanes hold stale values
-          // and are masked). GCC 12 does not vectorise it; it took 0-3.5% off shading.
-          alignas(64) float origin[3][kLanes], normal[3][kLanes], geometric[3][kLanes];
-          for (int i = 0; i < kLanes; ++i) {
-            const Lane& lane = lanes[i];
-            origin[0][i] = lane.origin.x, origin[1][i] = lane.origin.y, origin[2][i] = lane.origin.z;
-            normal[0][i] = lane.n.x, normal[1][i] = lane.n.y, normal[2][i] = lane.n.z;
-            geometric[0][i] = lane.ng.x, geometric[1][i] = lane.ng.y, geometric[2][i] = lane.ng.z;
-          }
           for (size_t l = 0; l < scene.lights.size(); ++l) {
             const ShadingLight& light = scene.lights[l];
-            alignas(64) float point[3][kLanes];
-            for (int i = 0; i < kLanes; ++i) {
-              const Vec3f p =
-                  active[i] && light.area ? LightPoint(light, samplers[i].Get(s, static_cast<int>(l))) : light.position;
-              point[0][i] = p.x, point[1][i] = p.y, point[2][i] = p.z;
+            const bool area = light.area;
+            // An area light's point for each lane: a stratified sample of its square.
+            if (area) {
+              for (int i = 0; i < kLanes; ++i) {
+                if (!active[i]) continue;
+                const std::array<float, 2> a = samplers[i].Get(s, static_cast<int>(l));
+                draw[0][i] = a[0], draw[1][i] = a[1];
+              }
             }
             // What the light sends from its point to each lane's surface point before the
             // shadow ray. Cycles: an area light's radiance is P / (4 A), a point light's
-            // intensity P / (4 pi^2).
-            const bool area = light.area;
+            // intensity P / (4 pi^2). Inactive lanes hold stale values and are masked.
             const float power = area ? light.power_w / 4 : light.power_w / (4 * kPi * kPi);
-            for (int i = 0; i < kLanes; ++i) {
-              float wx = point[0][i] - origin[0][i], wy = point[1][i] - origin[1][i], wz = point[2][i] - origin[2][i];
-              const float d2 = std::max(wx * wx + wy * wy + wz * wz, 1e-4f);
-              const float d = std::sqrt(d2);
-              const float inverse = 1 / d;
-              wx = wx * inverse, wy = wy * inverse, wz = wz * inverse;
-              const float cos_s = normal[0][i] * wx + normal[1][i] * wy + normal[2][i] * wz;
+            for (int c = 0; c < kLanes; c += kWidth) {
+              const FloatMask active_lanes = IsSet(active, c);
+              if (stdx::none_of(active_lanes)) {
+                StoreMask(active_lanes, valid, c);
+                continue;
+              }
+              const Floats3 origin = Load3(columns.origin, c);
+              Floats3 point = Splat3(light.position);
+              if (area) {
+                point = point + Splat3(light.u_axis) * (2 * Load(draw[0], c) - 1) +
+                        Splat3(light.v_axis) * (2 * Load(draw[1], c) - 1);
+              }
+              Floats3 w = point - origin;
+              Floats d2 = Dot(w, w);
+              where(d2 < 1e-4f, d2) = 1e-4f;
+              const Floats d = stdx::sqrt(d2);
+              w = w * (1 / d);
+              const Floats cos_s = Dot(Load3(columns.n, c), w);
               // Below the geometric surface the shadow ray would hit its own triangle.
-              const float cos_g = geometric[0][i] * wx + geometric[1][i] * wy + geometric[2][i] * wz;
-              const float cos_l = -(light.normal.x * wx + light.normal.y * wy + light.normal.z * wz);
-              // Bitwise, not short-circuit: no branch per lane.
-              const bool lit = (active[i] != 0) & !(cos_s <= 0) & !(cos_g <= 0) & (!area | !(cos_l <= 0));
-              valid[i] = -static_cast<int>(lit);
-              irradiance[i] = power * (area ? cos_l : 1.0f) * cos_s / d2;
-              wi[0][i] = wx, wi[1][i] = wy, wi[2][i] = wz;
-              shadow.org_x[i] = origin[0][i], shadow.org_y[i] = origin[1][i], shadow.org_z[i] = origin[2][i];
-              shadow.dir_x[i] = wx, shadow.dir_y[i] = wy, shadow.dir_z[i] = wz;
-              shadow.tnear[i] = 0;
-              shadow.tfar[i] = d;
+              const Floats cos_g = Dot(Load3(columns.ng, c), w);
+              const Floats cos_l = -Dot(Splat3(light.normal), w);
+              FloatMask lit = active_lanes && !(cos_s <= 0) && !(cos_g <= 0);
+              if (area) lit = lit && !(cos_l <= 0);
+              StoreMask(lit, valid, c);
+              Store((area ? power * cos_l : Floats(power)) * cos_s / d2, irradiance, c);
+              Store3(w, wi, c);
+              Store3(origin, shadow.org_x, shadow.org_y, shadow.org_z, c);
+              Store3(w, shadow.dir_x, shadow.dir_y, shadow.dir_z, c);
+              Store(Floats(0), shadow.tnear, c);
+              Store(d, shadow.tfar, c);
             }
             const bool shadowed = !light.at_eye && AnyValid(valid);
             if (shadowed) {
               count(valid);
               rtcOccluded16(valid, scene.scene, &secondary, &shadow);
             }
-            for (int i = 0; i < kLanes; ++i) {
-              if (!valid[i] || (shadowed && shadow.tfar[i] < 0)) continue;
-              const Vec3f towards_light{wi[0][i], wi[1][i], wi[2][i]};
-              lanes[i].radiance = lanes[i].radiance + lanes[i].Reflected(towards_light, irradiance[i]);
+            // Light arriving along wi with this irradiance, reflected towards the camera.
+            for (int c = 0; c < kLanes; c += kWidth) {
+              FloatMask lit = IsSet(valid, c);
+              if (shadowed) lit = lit && !(Load(shadow.tfar, c) < 0);
+              // Lanes the light does not reach (shadowed, facing away, no hit) add nothing.
+              if (stdx::none_of(lit)) continue;
+              const Floats3 n = Load3(columns.n, c);
+              const Floats3 half = Normalized(Load3(wi, c) + Load3(columns.wo, c));
+              Floats cos_h = Dot(n, half);
+              where(cos_h < 0, cos_h) = 0;
+              const Floats spec = Load(columns.specular_norm, c) * Pow(cos_h, Load(columns.exponent, c));
+              const Floats e = Load(irradiance, c);
+              const Floats3 reflected = (Load3(columns.diffuse, c) + Load3(columns.f0, c) * spec) * e;
+              Floats3 radiance = Load3(columns.radiance, c);
+              radiance.Where(lit, radiance + reflected);
+              Store3(radiance, columns.radiance, c);
             }
           }
           for (int i = 0; i < kLanes; ++i) {
             valid[i] = 0;
-            traced[i] = 0;
-            if (!active[i]) continue;
-            Lane& lane = lanes[i];
-            if (!lane.ambient_lit) continue;
-            const Vec3f wa = CosineDirection(lane.n, samplers[i].Get(s, dims - 1));
+            if (!active[i] || !lanes[i].ambient_lit) continue;
+            const std::array<float, 2> a = samplers[i].Get(s, dims - 1);
+            draw[0][i] = a[0], draw[1][i] = a[1];
             valid[i] = -1;
+          }
+          const float range = scene.ambient_occlusion_m;
+          for (int c = 0; c < kLanes; c += kWidth) {
+            const FloatMask lit = IsSet(valid, c);
+            if (stdx::none_of(lit)) {
+              StoreMask(lit, traced, c);
+              continue;
+            }
+            const Floats3 n = Load3(columns.n, c);
+            const Floats a0 = Load(draw[0], c), a1 = Load(draw[1], c);
+            const Floats3 wa = CosineDirection(n, a0, a1);
             // A direction under the geometric surface (smooth-shaded silhouettes) counts as open.
-            if (Dot(wa, lane.ng) <= 0) continue;
-            SetRayHit(&rays, i, lane.origin, wa, 0.0f, scene.ambient_occlusion_m);
-            traced[i] = -1;
+            StoreMask(lit && !(Dot(wa, Load3(columns.ng, c)) <= 0), traced, c);
+            Store3(Load3(columns.origin, c), rays.ray.org_x, rays.ray.org_y, rays.ray.org_z, c);
+            Store3(wa, rays.ray.dir_x, rays.ray.dir_y, rays.ray.dir_z, c);
+            Store(Floats(0), rays.ray.tnear, c);
+            Store(Floats(range), rays.ray.tfar, c);
+          }
+          for (int i = 0; i < kLanes; ++i) {
+            if (!traced[i]) continue;
+            rays.ray.time[i] = 0;
+            rays.ray.mask[i] = UINT32_MAX;
+            rays.ray.id[i] = 0;
+            rays.ray.flags[i] = 0;
+            rays.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+            rays.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
           }
           count(traced);
           if (AnyValid(traced)) rtcIntersect16(traced, scene.scene, &secondary, &rays);
-          for (int i = 0; i < kLanes; ++i) {
-            if (!active[i]) continue;
-            Lane& lane = lanes[i];
-            if (valid[i]) {
-              const bool blocked = traced[i] && rays.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
-              lane.radiance = lane.radiance + lane.Ambient(blocked ? rays.ray.tfar[i] / scene.ambient_occlusion_m : 1.0f);
+          for (int c = 0; c < kLanes; c += kWidth) {
+            // Obscurance rather than binary occlusion: a blocker at distance t lets t / range
+            // through (open = t / range), which is much less noisy at a few rays per pixel.
+            Floats open = 1;
+            const FloatMask blocked = IsSet(traced, c) && IsHit(rays.hit.geomID, c);
+            where(blocked, open) = Load(rays.ray.tfar, c) / range;
+            Floats3 radiance = Load3(columns.radiance, c);
+            radiance.Where(IsSet(valid, c),
+                           radiance + Load3(columns.diffuse, c) * (kPi * open) * Load3(columns.ambient, c));
+            // A single sample brighter than kMaxSampleRadiance would whiten its pixel alone (a firefly).
+            for (Floats* r : {&radiance.x, &radiance.y, &radiance.z}) {
+              where(kMaxSampleRadiance < *r, *r) = kMaxSampleRadiance;
             }
-            lane.sum = lane.sum + Clamped(lane.radiance);
+            Floats3 sum = Load3(columns.sum, c);
+            sum.Where(IsSet(active, c), sum + radiance);
+            Store3(sum, columns.sum, c);
           }
         }
         for (int i = 0; i < kLanes; ++i) {
@@ -792,15 +905,15 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
           const Lane& lane = lanes[i];
           const float inv = 1.0f / static_cast<float>(lane.samples);
           const size_t pixel = static_cast<size_t>(ty * kTile + i / kTile) * width + tx * kTile + i % kTile;
-          film.rgb[3 * pixel] = lane.sum.x * inv;
-          film.rgb[3 * pixel + 1] = lane.sum.y * inv;
-          film.rgb[3 * pixel + 2] = lane.sum.z * inv;
+          film.rgb[3 * pixel] = columns.sum[0][i] * inv;
+          film.rgb[3 * pixel + 1] = columns.sum[1][i] * inv;
+          film.rgb[3 * pixel + 2] = columns.sum[2][i] * inv;
           film.covered[pixel] = lane.covered ? 1 : 0;
           if (!adaptive) continue;
           guides.surface[pixel] = !lane.edge && lane.covered ? lane.instance : kNoSurface;
           if (guides.surface[pixel] != kNoSurface) {
             guides.depth[pixel] = lane.depth;
-            guides.normal[pixel] = lane.n;
+            guides.normal[pixel] = {columns.n[0][i], columns.n[1][i], columns.n[2][i]};
             guides.albedo[pixel] = lane.base;
           }
         }
@@ -867,13 +980,18 @@ Image8 EncodeFilm(const Film& film) {
   out.pixels.resize(film.rgb.size());
   const std::array<float, 255>& thresholds = SrgbThresholds();
   const std::array<uint8_t, kCodeBuckets + 1>& start = SrgbCodeBuckets();
-  for (size_t i = 0; i < film.rgb.size(); ++i) {
-    const float v = ToneMap(film.rgb[i]);  // in [0, 1]
+  auto encode = [&](size_t i, float v) {  // v = ToneMap(film.rgb[i]), in [0, 1]
     // The count of thresholds at or below v, from its bucket's first code on.
     int code = start[static_cast<size_t>(v * kCodeBuckets)];
     while (code < 255 && thresholds[code] <= v) ++code;
     out.pixels[i] = static_cast<uint8_t>(code);
+  };
+  size_t i = 0;
+  for (; i + kWidth <= film.rgb.size(); i += kWidth) {
+    const Floats v = ToneMapLanes(Floats(&film.rgb[i], stdx::element_aligned));
+    for (int k = 0; k < kWidth; ++k) encode(i + k, v[k]);
   }
+  for (; i < film.rgb.size(); ++i) encode(i, ToneMap(film.rgb[i]));
   return out;
 }
 

@@ -334,6 +334,66 @@ TEST(FlatLightingFilter, SameBytesForAnyThreadCount) {
   EXPECT_EQ(one.film.rgb, three.film.rgb);
 }
 
+// The filter as its definition reads (FilterFlatLighting in shading.h), one pixel at a
+// time, in the order of its sums: the filter's vectors of pixels must give these bits.
+Film FilteredByDefinition(const FlatGuides& g, Film film) {
+  const int w = film.width, h = film.height;
+  const size_t pixels = static_cast<size_t>(w) * h;
+  std::vector<uint8_t> usable(pixels);
+  std::vector<Vec3f> lighting(pixels), across(pixels);
+  for (size_t p = 0; p < pixels; ++p) {
+    const Vec3f a = g.albedo[p];
+    usable[p] = g.surface[p] != kNoSurface && a.x > 1e-3f && a.y > 1e-3f && a.z > 1e-3f;
+    if (usable[p]) lighting[p] = {film.rgb[3 * p] / a.x, film.rgb[3 * p + 1] / a.y, film.rgb[3 * p + 2] / a.z};
+  }
+  auto mean = [&](const std::vector<Vec3f>& in, size_t p, int k, int length, ptrdiff_t step) {
+    Vec3f sum;
+    int n = 0;
+    for (int d = -kFlatFilterRadius; d <= kFlatFilterRadius; ++d) {
+      if (k + d < 0 || k + d >= length) continue;
+      const auto q = static_cast<size_t>(static_cast<ptrdiff_t>(p) + d * step);
+      const bool same = d == 0 || (usable[q] && g.surface[q] == g.surface[p] &&
+                                   std::fabs(g.depth[q] - g.depth[p]) <=
+                                       0.02f * static_cast<float>(std::abs(d)) * g.depth[p] &&
+                                   Dot(g.normal[q], g.normal[p]) >= 0.906f);
+      if (!same) continue;
+      sum = sum + in[q];
+      ++n;
+    }
+    return sum * (1.0f / static_cast<float>(n));
+  };
+  for (size_t p = 0; p < pixels; ++p) {
+    if (usable[p]) across[p] = mean(lighting, p, static_cast<int>(p % w), w, 1);
+  }
+  for (size_t p = 0; p < pixels; ++p) {
+    if (!usable[p]) continue;
+    const Vec3f radiance = mean(across, p, static_cast<int>(p / w), h, w) * g.albedo[p];
+    film.rgb[3 * p] = radiance.x, film.rgb[3 * p + 1] = radiance.y, film.rgb[3 * p + 2] = radiance.z;
+  }
+  return film;
+}
+
+// Random surfaces, depths within and beyond the 2% step, normals within and beyond 25
+// degrees, dark texels and edges, on widths that leave rows partly to the scalar path.
+TEST(FlatLightingFilter, SameBitsAsItsDefinitionOnRandomSurfaces) {
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (const int w : {37, 64, 5}) {
+    const int h = 29;
+    GuidedFilm f = OneSurface(w, h, [&](int, int) { return Vec3f{2 * unit(gen), 2 * unit(gen), 2 * unit(gen)}; });
+    for (size_t p = 0; p < f.guides.surface.size(); ++p) {
+      const float r = unit(gen);
+      f.guides.surface[p] = r < 0.1f ? kNoSurface : r < 0.5f ? 1 : 2;
+      f.guides.depth[p] = 2.0f * (1 + 0.03f * unit(gen));
+      f.guides.normal[p] = unit(gen) < 0.2f ? Vec3f{0.5f, 0, 0.866f} : Vec3f{0, 0.1f * unit(gen), 0.995f};
+      if (unit(gen) < 0.05f) f.guides.albedo[p].y = 0;
+    }
+    const Film expected = FilteredByDefinition(f.guides, f.film);
+    FilterFlatLighting(f.guides, 2, &f.film);
+    EXPECT_EQ(f.film.rgb, expected.rgb) << w << "x" << h;
+  }
+}
+
 double Psnr(const Image8& a, const Image8& b) {
   double sum = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {
