@@ -67,11 +67,11 @@ void PrintAdvice(const optimizer::OptimizeReport& r) {
                "preset whose structure is nearer the targets (--preset)\n");
   }
   if (r.ending == "time" || r.ending == "evaluations" || r.ending == "rounds") {
-    fmt::print("  a larger budget: --max-seconds {:g} (or --max-evals, --rounds)\n", 2 * r.seconds);
+    fmt::print("  a larger budget: --max-seconds {:.0f} (or --max-evals, --rounds)\n", std::ceil(2 * r.seconds));
   }
   if (r.ending != "blocked") {
-    fmt::print("  more common layouts per evaluation (--layouts; noisy rows, such as 13.7 objects per image, need "
-               "200), or a nearer preset (--preset)\n");
+    fmt::print("  more layouts per evaluation for metrics that vary much from layout to layout (--layouts), or a "
+               "nearer preset (--preset)\n");
   }
 }
 
@@ -82,7 +82,7 @@ void PrintReport(const optimizer::OptimizeReport& r, const std::string& out) {
   for (const std::string& line : r.history) fmt::print("  {}\n", line);
   fmt::print("scale classes counted at {}\n", render::ScaleClassDescription(r.best));
   if (r.cancelled) {
-    fmt::print("evaluation resolution {}x{}; achieved = the search's common layouts (95% CI), unconfirmed\n",
+    fmt::print("evaluation resolution {}x{}; achieved = the search's best evaluation (95% CI), unconfirmed\n",
                r.eval_width, r.eval_height);
   } else {
     const optimizer::ConfirmationRow& c = r.confirmations.back();
