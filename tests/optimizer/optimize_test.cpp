@@ -235,6 +235,15 @@ Result<OptimizeOptions> TwoRoundsOfAttempts(int max_evaluations) {
   return o;
 }
 
+// One target, the start's own count at the output resolution: near where a short search
+// ends, so that no clear miss cuts the confirmation short.
+Status TargetTheStartsCount(OptimizeOptions& o) {
+  SOLID_ASSIGN_OR_RETURN(const Evaluation start,
+                         Evaluate(o.start, render::testing::ProceduralLibrary(), {o.seed, 0, 100, 0, 0, 2}));
+  o.targets = {{Metric::kObjectsPerImage, start.metrics.objects_per_image.mean, 0.25}};
+  return Status::Ok();
+}
+
 // Gauss-Newton measures each evaluation on layouts of its own, the k-th from kSearchFirst +
 // k * kSearchStride (common layouts pair nearby points poorly here, optimizer/local_model.h):
 // each design and step row of the trace is its point measured there.
@@ -287,10 +296,7 @@ TEST(Optimize, ConfirmationIsTheTwoPhaseEstimateOfItsLayouts) {
   o.max_rounds = 1;
   o.confirm_layouts = 200;
   o.confirm_output_layouts = 40;
-  // The start's own count, near where the short search ends: no clear miss cuts it short.
-  Result<Evaluation> start = Evaluate(o.start, render::testing::ProceduralLibrary(), {o.seed, 0, 100, 0, 0, 2});
-  ASSERT_OK(start.status());
-  o.targets = {{Metric::kObjectsPerImage, start->metrics.objects_per_image.mean, 0.25}};
+  ASSERT_OK(TargetTheStartsCount(o));
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
   ASSERT_EQ(r->confirmations.size(), 1u);
@@ -323,10 +329,7 @@ TEST(Optimize, ConfirmationIsSizedToItsStandardError) {
   o.max_rounds = 1;
   o.confirm_layouts = 0;
   o.confirm_standard_error = 0.5;
-  // The start's own count at the output resolution: near where the short search ends.
-  Result<Evaluation> start = Evaluate(o.start, render::testing::ProceduralLibrary(), {o.seed, 0, 100, 0, 0, 2});
-  ASSERT_OK(start.status());
-  o.targets = {{Metric::kObjectsPerImage, start->metrics.objects_per_image.mean, 0.25}};
+  ASSERT_OK(TargetTheStartsCount(o));
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
   ASSERT_EQ(r->confirmations.size(), 1u);
