@@ -35,3 +35,5 @@ find_package(TinyGLTF 2.7 CONFIG REQUIRED)
 find_package(embree 3.13 CONFIG REQUIRED)
 # solid::optimizer, through NLopt's C API (nlopt.h of libnlopt-dev; not the C++ wrapper)
 find_package(NLopt 2.7 CONFIG REQUIRED)
+# solid::optimizer: the local model's least squares (optimizer/local_model.cpp); header-only
+find_package(Eigen3 3.3 CONFIG REQUIRED)

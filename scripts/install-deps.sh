@@ -10,7 +10,7 @@ packages=(
   # libraries: docs/dependencies.md says what each one does, and where
   libsqlite3-dev libxxhash-dev nlohmann-json3-dev libcli11-dev libfmt-dev
   libopenimageio-dev libdeflate-dev
-  libembree-dev libdraco-dev libnlopt-dev
+  libembree-dev libdraco-dev libnlopt-dev libeigen3-dev
   # the reference SOLID zarr store of `solid export zarr`: Blosc compresses its chunks
   libblosc-dev
   # glTF input (`solid convert gltf`): tinygltf reads it, meshoptimizer decodes EXT_meshopt_compression
