@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "solid/formats/random.h"
+#include "placement.h"
 #include "room.h"
 #include "streams.h"
 
@@ -18,9 +19,6 @@ namespace solid::render {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-// Objects resting on the floor float this far above it: the shell test counts touching
-// as intersecting.
-constexpr double kFloorGap = 1e-3;
 
 Mat3 CameraRotation(const Camera& c) {
   const auto& a = c.world_from_camera;
@@ -89,7 +87,8 @@ Result<std::shared_ptr<const RoomShell>> LayoutSampler::Shell(size_t room_index)
 
 namespace {
 
-// Everything one layout draw needs while placing objects.
+// Everything one layout draw needs while placing objects (placement.h says how a pose
+// try draws).
 class Placer {
  public:
   Placer(const LayoutParams& p, const RoomShell& room, const Camera& camera)
@@ -98,15 +97,14 @@ class Placer {
         camera_(camera),
         eye_(CameraPosition(camera)),
         k_max_(room.TopLevel()),
-        axis_range_(static_cast<uint64_t>(room.points())),
-        height_range_(static_cast<uint64_t>(k_max_) + 1) {}
+        floor_(p.support == Support::kFloor),
+        candidates_(ListCandidates(p, room, camera)) {}
 
   // One pose try: a centre for a box of `half` extents and `rotation`, or false. The
   // proposals draw from `rng` alone.
   bool TryPlace(const Mat3& rotation, Vec3 half, double size_m, bool cluster, bool occlude, bool depth_by_size,
                 const std::vector<PlacedObject>& placed, Rng& rng, Vec3* centre, int64_t* proposals) {
     const int n = room_.points();
-    const bool floor = p_.support == Support::kFloor;
     // Cluster balls and the lattice cubes (squares for floor support) around them.
     cubes_.Clear();
     uint64_t total = 0;
@@ -121,7 +119,7 @@ class Placer {
         };
         range(c.x, room_.X(0), room_.X(1) - room_.X(0), 0);
         range(c.y, room_.Y(0), room_.Y(1) - room_.Y(0), 1);
-        if (floor) {
+        if (floor_) {
           lo[2] = hi[2] = 0;
         } else {
           range(c.z, 0, room_.Z(1), 2);
@@ -132,59 +130,101 @@ class Placer {
       }
       if (cubes_.size() == 0) return false;
     }
-    const IndexRange total_range(cluster ? total : 1);
     const double zhalf = std::fabs(rotation(2, 0)) * half.x + std::fabs(rotation(2, 1)) * half.y +
                          std::fabs(rotation(2, 2)) * half.z;
     if (occlude) ProjectPlaced(placed);
+    const Pose pose{rotation, half, zhalf, size_m, cluster, occlude, depth_by_size};
+    const std::vector<LatticePoint>& candidates = floor_ ? FloorCandidates(zhalf) : candidates_.points;
+    const auto lattice = static_cast<uint64_t>(n) * static_cast<uint64_t>(n) *
+                         (floor_ ? 1 : static_cast<uint64_t>(k_max_) + 1);
+    const uint64_t drawn_from = cluster ? total : lattice;
+    if (candidates.size() > drawn_from) return ProposeFromCubes(total, pose, placed, rng, centre, proposals);
+    return ProposeCandidates(candidates, drawn_from, pose, placed, rng, centre, proposals);
+  }
+
+ private:
+  struct Pose {
+    const Mat3& rotation;
+    Vec3 half;
+    double zhalf;  // half the box's vertical extent
+    double size_m;
+    bool cluster, occlude, depth_by_size;
+  };
+
+  const std::vector<LatticePoint>& FloorCandidates(double zhalf) {
+    floor_points_.clear();
+    for (const FloorColumn& c : candidates_.floor_columns) {
+      if (c.lo <= zhalf && zhalf <= c.hi) floor_points_.push_back({c.i, c.j, 0});
+    }
+    return floor_points_;
+  }
+
+  bool ProposeCandidates(const std::vector<LatticePoint>& candidates, uint64_t drawn_from, const Pose& pose,
+                         const std::vector<PlacedObject>& placed, Rng& rng, Vec3* centre, int64_t* proposals) {
+    if (candidates.empty()) {
+      *proposals += p_.max_proposals;
+      return false;
+    }
+    int64_t spent = 0;
+    const bool placed_it = DrawCandidates(
+        candidates.size(), drawn_from, p_.max_proposals, rng,
+        [&](uint64_t index) {
+          const LatticePoint& c = candidates[index];
+          // A candidate outside every cube is a point the cubes never draw.
+          if (pose.cluster && cubes_.Containing(c.i, c.j, c.k) == 0) return false;
+          return Accept(c.i, c.j, c.k, pose, placed, centre);
+        },
+        &spent);
+    *proposals += spent;
+    return placed_it;
+  }
+
+  // The try's draws one by one from the cluster cubes, when they hold fewer points than
+  // the candidates: uniform over the union of the cubes (a cube by its size, a point in
+  // it, kept with probability 1 / the cubes containing it).
+  bool ProposeFromCubes(uint64_t total, const Pose& pose, const std::vector<PlacedObject>& placed, Rng& rng,
+                        Vec3* centre, int64_t* proposals) {
+    const IndexRange total_range(total);
     for (int attempt = 0; attempt < p_.max_proposals; ++attempt) {
       ++*proposals;
-      int i = 0, j = 0, k = 0;
-      if (cluster) {
-        // Uniform over the union of the cubes: pick a cube by its size, a point in it,
-        // and keep the point with probability 1 / (cubes containing it).
-        uint64_t pick = rng.Index(total_range);
-        size_t b = 0;
-        while (pick >= cubes_.count[b]) pick -= cubes_.count[b++];
-        i = cubes_.lo[0][b] + static_cast<int>(rng.Index(cubes_.extent[0][b]));
-        j = cubes_.lo[1][b] + static_cast<int>(rng.Index(cubes_.extent[1][b]));
-        k = cubes_.lo[2][b] + static_cast<int>(rng.Index(cubes_.extent[2][b]));
-        const int containing = cubes_.Containing(i, j, k);
-        if (containing > 1 && !rng.Chance(1.0 / containing)) continue;
-      } else {
-        i = static_cast<int>(rng.Index(axis_range_));
-        j = static_cast<int>(rng.Index(axis_range_));
-        k = floor ? 0 : static_cast<int>(rng.Index(height_range_));
-      }
-      if (!room_.Covered(i, j)) continue;
-      Vec3 c{room_.X(i), room_.Y(j), floor ? room_.FloorZ(i, j) + zhalf + kFloorGap : room_.Z(k)};
-      if (!floor && (c.z < room_.FloorZ(i, j) || c.z > room_.CeilingZ(i, j))) continue;
-      double u = 0, v = 0;
-      if (!Project(camera_, c, p_.camera_near_m, &u, &v)) continue;
-      if (std::fabs(u - camera_.cx) > p_.frustum_inset * camera_.cx ||
-          std::fabs(v - camera_.cy) > p_.frustum_inset * camera_.cy) {
-        continue;
-      }
-      if (!(std::hypot(c.x - eye_.x, c.y - eye_.y) > p_.min_hdist_m)) continue;
-      if (cluster && !cubes_.NearSome(c)) continue;
-      if (occlude && !Occludes(c, u, v, placed)) continue;
-      if (depth_by_size && !InDepthBand(c, size_m, placed)) continue;
-      const Obb box{c, rotation, half};
-      if (!room_.InsideValidVolume(box)) continue;
-      bool free = true;
-      for (const PlacedObject& o : placed) {
-        if (Intersects(box, o.box)) {
-          free = false;
-          break;
-        }
-      }
-      if (!free || room_.TouchesShell(box)) continue;
-      *centre = c;
-      return true;
+      uint64_t pick = rng.Index(total_range);
+      size_t b = 0;
+      while (pick >= cubes_.count[b]) pick -= cubes_.count[b++];
+      const int i = cubes_.lo[0][b] + static_cast<int>(rng.Index(cubes_.extent[0][b]));
+      const int j = cubes_.lo[1][b] + static_cast<int>(rng.Index(cubes_.extent[1][b]));
+      const int k = cubes_.lo[2][b] + static_cast<int>(rng.Index(cubes_.extent[2][b]));
+      const int containing = cubes_.Containing(i, j, k);
+      if (containing > 1 && !rng.Chance(1.0 / containing)) continue;
+      if (Accept(i, j, k, pose, placed, centre)) return true;
     }
     return false;
   }
 
- private:
+  // Every test of a drawn lattice point, camera tests first.
+  bool Accept(int i, int j, int k, const Pose& pose, const std::vector<PlacedObject>& placed, Vec3* centre) {
+    if (!room_.Covered(i, j)) return false;
+    const Vec3 c{room_.X(i), room_.Y(j), floor_ ? room_.FloorZ(i, j) + pose.zhalf + kFloorGap : room_.Z(k)};
+    if (!floor_ && (c.z < room_.FloorZ(i, j) || c.z > room_.CeilingZ(i, j))) return false;
+    double u = 0, v = 0;
+    if (!Project(camera_, c, p_.camera_near_m, &u, &v)) return false;
+    if (std::fabs(u - camera_.cx) > p_.frustum_inset * camera_.cx ||
+        std::fabs(v - camera_.cy) > p_.frustum_inset * camera_.cy) {
+      return false;
+    }
+    if (!(std::hypot(c.x - eye_.x, c.y - eye_.y) > p_.min_hdist_m)) return false;
+    if (pose.cluster && !cubes_.NearSome(c)) return false;
+    if (pose.occlude && !Occludes(c, u, v, placed)) return false;
+    if (pose.depth_by_size && !InDepthBand(c, pose.size_m, placed)) return false;
+    const Obb box{c, pose.rotation, pose.half};
+    if (!room_.InsideValidVolume(box)) return false;
+    for (const PlacedObject& o : placed) {
+      if (Intersects(box, o.box)) return false;
+    }
+    if (room_.TouchesShell(box)) return false;
+    *centre = c;
+    return true;
+  }
+
   // The cluster balls of a pose try and their lattice cubes, as arrays: every proposal
   // counts the cubes that contain it, a loop the compiler vectorizes over these.
   struct Cubes {
@@ -323,8 +363,10 @@ class Placer {
   const Camera& camera_;
   Vec3 eye_;
   int k_max_;
-  IndexRange axis_range_, height_range_;  // lattice indices along x or y, and of heights up to k_max_
-  Cubes cubes_;                           // of the pose try in progress
+  bool floor_;
+  PlacementCandidates candidates_;
+  std::vector<LatticePoint> floor_points_;  // of the pose try in progress
+  Cubes cubes_;                             // of the pose try in progress
   std::vector<ImageBox> image_boxes_;     // of `placed`, for the pose try in progress
 };
 

@@ -775,6 +775,10 @@ Manifest RenderManifest(const LayoutSampler& sampler, const RenderOptions& optio
   // specular lobe's power and the ambient rays' directions from the shader's own vector
   // math (render/lanes.h) instead of std::pow, std::cos and std::sin.
   render["shading"] = 3;
+  // The layout sampler's draws, same law, other layouts: 2 since issue 41, when a pose try
+  // came to count its draws that miss the camera's candidates instead of making them
+  // (render/placement.h); before, no key.
+  render["placement"] = 2;
   m.params = {{"layout", ParamsToJson(p)}, {"render", render}};
   m.catalog_hash = sampler.library()->catalog_hash();
   return m;

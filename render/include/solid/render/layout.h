@@ -12,7 +12,9 @@
 // rejection from a superset (the whole valid lattice, or the union of the cluster
 // balls of placed objects) with max_proposals draws per pose try. A pose try whose
 // candidate set is non-empty but smaller than about 1/max_proposals of that superset
-// may therefore be missed; LayoutStats counts the proposals spent.
+// may therefore be missed; LayoutStats counts the proposals spent. The draws that fail
+// the camera's own tests are counted, not made (a geometric count), which keeps this law at
+// a third of the cost.
 #pragma once
 
 #include <cstdint>
