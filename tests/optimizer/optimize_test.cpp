@@ -210,14 +210,17 @@ TEST(Optimize, InfeasibleTargetEndsWithItsBlockingBound) {
   ASSERT_OK(options.status());
   OptimizeOptions& o = *options;
   o.max_evaluations = 30;
+  o.max_rounds = 4;
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
   ASSERT_OK(r.status());
   EXPECT_FALSE(r->all_met);
   ASSERT_EQ(r->results.size(), 1u);
   EXPECT_FALSE(r->results[0].met);
   EXPECT_THAT(r->results[0].blocked_by, ::testing::Contains(HasSubstr("objects.attempts.low at its upper bound 4")));
-  // Ended by the bound, not by spending the budget on it.
+  // Ended by the bound, not by spending the budget on it; and only when a second round, on a
+  // fresh design, stopped at the bound again: one round's model may put a slope's sign wrong.
   EXPECT_EQ(r->ending, "blocked") << r->stop_reason;
+  EXPECT_EQ(r->rounds, 2);
   EXPECT_LT(r->evaluations, o.max_evaluations);
 }
 
@@ -269,9 +272,10 @@ TEST(Optimize, GaussNewtonMeasuresEachEvaluationOnLayoutsOfItsOwn) {
 }
 
 // The design of differences around the start: each free dimension a step of 0.15 of its
-// bounds on each side, cut at a bound. objects.attempts.low is 20 in [1, 22], so the step up is
-// cut at 22 and the step down is whole.
-TEST(Optimize, DesignDifferencesAFifteenthOfTheBoundsEachSide) {
+// bounds on each side, cut at a bound; within 0.15 of a bound the steps are 0.3, as the pair
+// is then lopsided (its evaluations' noise over a shorter difference). objects.attempts.low
+// is 20 in [1, 22], 0.9 of its bounds: the step up is cut at 22, the step down is 0.3.
+TEST(Optimize, DesignDifferenceAtABoundIsOneSidedAndTwiceAsLong) {
   Result<OptimizeOptions> options = TwoRoundsOfAttempts(6);
   ASSERT_OK(options.status());
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), *options);
@@ -283,7 +287,7 @@ TEST(Optimize, DesignDifferencesAFifteenthOfTheBoundsEachSide) {
   const Dimension& low = r->dimensions[0];
   ASSERT_EQ(low.name, "objects.attempts.low");
   EXPECT_DOUBLE_EQ(r->trace[2].x[0], low.hi);
-  EXPECT_NEAR((r->trace[1].x[0] - r->trace[3].x[0]) / (low.hi - low.lo), 0.15, 1e-9);
+  EXPECT_NEAR((r->trace[1].x[0] - r->trace[3].x[0]) / (low.hi - low.lo), 0.30, 1e-9);
 }
 
 // A confirmation measures its layouts at the evaluation resolution and, of each of its parts,
