@@ -125,6 +125,42 @@ TEST(Optimize, TargetOfTheStartIsMetWithoutSearch) {
   EXPECT_EQ(r->best, o.start);
 }
 
+// A confirmation that meets its target by less than one of its standard errors does not end
+// the fit (a point just inside a tolerance fails the next fresh layouts often); one inside by
+// more does. The start meets its target without search, so both fits confirm it on the same
+// 200 fresh layouts (40 pairs), and only the tolerance differs.
+TEST(Optimize, EndsOnAConfirmationOnlyWhenAStandardErrorInsideEveryTolerance) {
+  OptimizeOptions o = Reduced(Preset("more-objects"));
+  o.confirm_layouts = 200;
+  o.confirm_output_layouts = 40;
+  // The local model's own rule (its level within the margin) passes in both: only the
+  // confirmation's standard error decides.
+  o.search_margin = 1;
+  const EvaluationOptions at_output{o.seed, 0, o.layouts, 0, 0, 2};
+  Result<Evaluation> e = Evaluate(o.start, render::testing::ProceduralLibrary(), at_output);
+  ASSERT_OK(e.status());
+  const double target = e->metrics.objects_per_image.mean;
+  auto fit_with_tolerance = [&](double tolerance) {
+    o.targets = {{Metric::kObjectsPerImage, target, tolerance}};
+    return Optimize(render::testing::ProceduralLibrary(), o);
+  };
+  Result<OptimizeReport> wide = fit_with_tolerance(8);
+  ASSERT_OK(wide.status());
+  ASSERT_EQ(wide->ending, "met") << wide->stop_reason;
+  ASSERT_EQ(wide->confirmations.size(), 1u);
+  const Estimate confirmed = wide->confirmations[0].metrics.objects_per_image;
+  const double off = std::abs(confirmed.mean - target), se = confirmed.ci95 / 1.96;
+  ASSERT_GT(off, 0);
+  for (const auto& [inside, ends] : {std::pair{0.5, false}, std::pair{1.5, true}}) {
+    Result<OptimizeReport> r = fit_with_tolerance(off + inside * se);
+    ASSERT_OK(r.status());
+    ASSERT_EQ(r->confirmations.size(), 1u);
+    EXPECT_EQ(r->confirmations[0].metrics.objects_per_image.mean, confirmed.mean);
+    EXPECT_TRUE(r->confirmations[0].met);
+    EXPECT_EQ(r->ending == "met", ends) << inside << " SE inside: " << r->stop_reason;
+  }
+}
+
 class OptimizeWith : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(OptimizeWith, RecoversAReachablePointFromRandomPlacement) {

@@ -138,8 +138,8 @@ struct OptimizeOptions {
   // Local algorithm. "gauss-newton" (default): a trust-region Gauss-Newton search on the
   // residuals (metric - target) / tolerance of a local linear model fitted to every
   // evaluation and confirmation near the point (optimizer/local_model.h; a design of
-  // differences, two evaluations per free dimension, one where a bound leaves no room, at a
-  // quarter of each dimension's bounds), each evaluation on layouts of its own, and each
+  // differences, two evaluations per free dimension at 0.15 of its bounds each side, 0.3
+  // within 0.15 of a bound), each evaluation on layouts of its own, and each
   // step's bounded linear least-squares problem solved by NLopt's SLSQP. Or an NLopt
   // derivative-free method on the objective over common layouts: "sbplx", "neldermead",
   // "bobyqa", "cobyla", "praxis".
