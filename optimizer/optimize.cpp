@@ -178,12 +178,23 @@ double StandardError(const ProxyMetrics& m, const Target& t) {
   return MetricOf(m, t.metric).ci95 / 1.96 / t.tolerance;
 }
 
-// Every target's residual at least `standard_errors` of its own standard error inside the
-// tolerance.
-bool SurelyWithin(const ProxyMetrics& m, const std::vector<Target>& targets, double standard_errors) {
+// Every target's residual at the latest confirmed point at least `standard_errors` of its
+// standard error inside the tolerance, over every confirmation of that point pooled (inverse-
+// variance weights): a point confirmed again is judged on all its layouts, not on whichever
+// confirmation happened to pass.
+bool SurelyWithin(const std::vector<ConfirmationRow>& confirmations, const std::vector<Target>& targets,
+                  double standard_errors) {
+  const std::vector<double>& x = confirmations.back().x;
   for (const Target& t : targets) {
-    const double residual = std::abs(MetricOf(m, t.metric).mean - t.value) / t.tolerance;
-    if (!(residual + standard_errors * StandardError(m, t) <= 1)) return false;
+    double weights = 0, weighted = 0;
+    for (const ConfirmationRow& c : confirmations) {
+      if (c.x != x) continue;
+      const double se = StandardError(c.metrics, t);
+      const double w = 1 / std::max(se * se, 1e-24);
+      weights += w;
+      weighted += w * (MetricOf(c.metrics, t.metric).mean - t.value) / t.tolerance;
+    }
+    if (!(std::abs(weighted / weights) + standard_errors / std::sqrt(weights) <= 1)) return false;
   }
   return true;
 }
@@ -1072,8 +1083,10 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
       // same point again). The standard error too, as the model's level leans on evaluations
       // whose offset to the output resolution is estimated: 3 of 10 cross-row fits to
       // more-objects ended on confirmations 0.9 SE inside the count's tolerance with the model
-      // within the margin, and 2,000 further layouts missed the count.
-      if (gauss_newton ? confirmed.met && SurelyWithin(confirmation.metrics, options.targets, 1) &&
+      // within the margin, and 2,000 further layouts missed the count. A point confirmed in
+      // several rounds is judged on its confirmations pooled: otherwise each round would be one
+      // more chance for a point outside to pass by luck.
+      if (gauss_newton ? confirmed.met && SurelyWithin(r.confirmations, options.targets, 1) &&
                              s.ModelWithinMargin(s.Fit(s.best_unit))
                        : Within(confirmation.metrics, options.targets, options.search_margin)) {
         end_with("met");
