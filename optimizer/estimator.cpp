@@ -141,4 +141,24 @@ ConfirmationSize SizeConfirmation(const std::vector<TwoPhaseEstimate>& estimates
   return size;
 }
 
+std::vector<PooledResidual> PoolConfirmations(const std::vector<ConfirmationRow>& confirmations,
+                                              const std::vector<Target>& targets) {
+  std::vector<PooledResidual> out;
+  if (confirmations.empty()) return out;
+  const std::vector<double>& x = confirmations.back().x;
+  for (const Target& t : targets) {
+    double weights = 0, weighted = 0;
+    for (const ConfirmationRow& c : confirmations) {
+      if (c.x != x) continue;
+      const Estimate& e = MetricOf(c.metrics, t.metric);
+      const double se = e.ci95 / kZ95 / t.tolerance;
+      const double w = 1 / std::max(se * se, 1e-24);
+      weights += w;
+      weighted += w * (e.mean - t.value) / t.tolerance;
+    }
+    out.push_back({weighted / weights, 1 / std::sqrt(weights)});
+  }
+  return out;
+}
+
 }  // namespace solid::optimizer

@@ -51,4 +51,15 @@ struct ConfirmationSize {
 ConfirmationSize SizeConfirmation(const std::vector<TwoPhaseEstimate>& estimates, const std::vector<Target>& targets,
                                   double low_cost, double high_cost, double standard_error);
 
+// Each target's residual, (metric - target) / tolerance, at the point of the latest of
+// `confirmations`, over every confirmation of that point pooled with inverse-variance
+// weights, and its standard error in tolerances: a point confirmed in several rounds is
+// judged on all its layouts, not on whichever confirmation happened to pass.
+struct PooledResidual {
+  double residual = 0;
+  double standard_error = 0;
+};
+std::vector<PooledResidual> PoolConfirmations(const std::vector<ConfirmationRow>& confirmations,
+                                              const std::vector<Target>& targets);
+
 }  // namespace solid::optimizer

@@ -178,23 +178,12 @@ double StandardError(const ProxyMetrics& m, const Target& t) {
   return MetricOf(m, t.metric).ci95 / 1.96 / t.tolerance;
 }
 
-// Every target's residual at the latest confirmed point at least `standard_errors` of its
-// standard error inside the tolerance, over every confirmation of that point pooled (inverse-
-// variance weights): a point confirmed again is judged on all its layouts, not on whichever
-// confirmation happened to pass.
+// Every target's residual at the latest confirmed point, its confirmations pooled, at least
+// `standard_errors` of its standard error inside the tolerance.
 bool SurelyWithin(const std::vector<ConfirmationRow>& confirmations, const std::vector<Target>& targets,
                   double standard_errors) {
-  const std::vector<double>& x = confirmations.back().x;
-  for (const Target& t : targets) {
-    double weights = 0, weighted = 0;
-    for (const ConfirmationRow& c : confirmations) {
-      if (c.x != x) continue;
-      const double se = StandardError(c.metrics, t);
-      const double w = 1 / std::max(se * se, 1e-24);
-      weights += w;
-      weighted += w * (MetricOf(c.metrics, t.metric).mean - t.value) / t.tolerance;
-    }
-    if (!(std::abs(weighted / weights) + standard_errors / std::sqrt(weights) <= 1)) return false;
+  for (const PooledResidual& r : PoolConfirmations(confirmations, targets)) {
+    if (!(std::abs(r.residual) + standard_errors * r.standard_error <= 1)) return false;
   }
   return true;
 }

@@ -126,5 +126,31 @@ TEST(SizeConfirmation, CheapestSizesThatReachTheError) {
   EXPECT_EQ(SizeConfirmation({noise}, targets, 1, 0, error).high, 0);
 }
 
+// A confirmation row at unit point `x` with a count of `mean` +- `se` (one standard error).
+ConfirmationRow Confirmed(std::vector<double> x, double mean, double se) {
+  ConfirmationRow c;
+  c.x = std::move(x);
+  c.metrics.objects_per_image = {mean, 1.959963984540054 * se};
+  return c;
+}
+
+TEST(PoolConfirmations, PoolsEveryConfirmationOfTheLatestPointByInverseVariance) {
+  // Count 14 with tolerance 0.25: the point at x = 0.5 confirmed twice, once at 14.20 +- 0.10
+  // (0.8 +- 0.4 tolerances) and once at 13.95 +- 0.05 (-0.2 +- 0.2); another point between.
+  const std::vector<ConfirmationRow> rows = {Confirmed({0.5}, 14.20, 0.10), Confirmed({0.7}, 15.0, 0.01),
+                                             Confirmed({0.5}, 13.95, 0.05)};
+  const std::vector<PooledResidual> pooled = PoolConfirmations(rows, {{Metric::kObjectsPerImage, 14, 0.25}});
+  ASSERT_EQ(pooled.size(), 1u);
+  // Weights 1 / 0.16 and 1 / 0.04: residual (0.8 / 0.16 - 0.2 / 0.04) / 31.25 = 0, standard
+  // error 1 / sqrt(31.25).
+  EXPECT_NEAR(pooled[0].residual, 0, 1e-12);
+  EXPECT_NEAR(pooled[0].standard_error, 1 / std::sqrt(31.25), 1e-12);
+  // Of one confirmation, its own residual and error.
+  const std::vector<PooledResidual> alone =
+      PoolConfirmations({rows[1]}, {{Metric::kObjectsPerImage, 14, 0.25}});
+  EXPECT_NEAR(alone[0].residual, 4, 1e-12);
+  EXPECT_NEAR(alone[0].standard_error, 0.04, 1e-12);
+}
+
 }  // namespace
 }  // namespace solid::optimizer
