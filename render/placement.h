@@ -4,12 +4,12 @@
 // the union of the cluster cubes, the first that passes every test giving the centre
 // (solid-method.md 2.4). Most draws fail tests that depend on the camera alone (a covered
 // column, between floor and ceiling, inside the inset frustum, far enough from the
-// camera): 98% of them with the more-objects preset. So the placer lists, once per layout,
-// a superset of the points that pass those tests (the candidates), draws how many of a
-// try's draws miss the list (a geometric count), and tests only those that hit it, each a
-// uniform candidate. Every lattice point keeps its probability per draw, one over the
-// drawn set's size, so a layout has the law of plain rejection sampling, at a third of its
-// cost (docs/benchmarks.md); the draws themselves are others.
+// camera): 98% of those the cluster cubes keep, at the more-objects row's fitted point. So
+// the placer lists, once per layout, a superset of the points that pass those tests (the
+// candidates), draws how many of a try's draws miss the list (a geometric count), and tests
+// only those that hit it, each a uniform candidate. Every lattice point keeps its probability per draw, one over the
+// drawn set's size, so a layout has the law of plain rejection sampling, there at a fifth of
+// its cost (docs/benchmarks.md); the draws themselves are others.
 #pragma once
 
 #include <cmath>

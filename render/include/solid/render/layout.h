@@ -13,8 +13,8 @@
 // balls of placed objects) with max_proposals draws per pose try. A pose try whose
 // candidate set is non-empty but smaller than about 1/max_proposals of that superset
 // may therefore be missed; LayoutStats counts the proposals spent. The draws that fail
-// the camera's own tests are counted, not made (a geometric count), which keeps this law at
-// a third of the cost.
+// the camera's own tests are counted, not made (a geometric count): the same law, at a
+// fifth of the cost where clusters are wide (render/placement.h).
 #pragma once
 
 #include <cstdint>
