@@ -7,9 +7,10 @@
 // camera): 98% of those the cluster cubes keep, at the more-objects row's fitted point. So
 // the placer lists, once per layout, a superset of the points that pass those tests (the
 // candidates), draws how many of a try's draws miss the list (a geometric count), and tests
-// only those that hit it, each a uniform candidate. Every lattice point keeps its probability per draw, one over the
-// drawn set's size, so a layout has the law of plain rejection sampling, there at a fifth of
-// its cost (docs/benchmarks.md); the draws themselves are others.
+// only those that hit it, each a uniform candidate. Every lattice point keeps its
+// probability per draw, one over the drawn set's size, so a layout has the law of plain
+// rejection sampling, there at a fifth of its cost (docs/benchmarks.md); the draws
+// themselves are others.
 #pragma once
 
 #include <cmath>

@@ -31,11 +31,10 @@ bool PassesCameraTests(const LayoutParams& p, const Camera& camera, const RoomSh
 
 // Layouts of `params` on the procedural rooms: each a room and a camera to list candidates for.
 std::vector<Layout> Cameras(const LayoutParams& params, int count) {
-  static std::vector<std::unique_ptr<LayoutSampler>> samplers;  // own the rooms the layouts point to
-  samplers.push_back(LayoutSampler::Create(params, testing::ProceduralLibrary()).value());
+  const auto sampler = LayoutSampler::Create(params, testing::ProceduralLibrary()).value();
   std::vector<Layout> out;
   for (int index = 0; static_cast<int>(out.size()) < count; ++index) {
-    Layout l = samplers.back()->Sample(3, index, 0).value();
+    Layout l = sampler->Sample(3, index, 0).value();
     if (l.rejection.empty()) out.push_back(std::move(l));
   }
   return out;
