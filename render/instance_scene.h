@@ -47,6 +47,27 @@ void SetRayLane(RTCRay16* r, int i, V origin, V direction, float tnear,
   r->flags[i] = 0;
 }
 
+// rtcIntersect16 and rtcOccluded16 on the lanes where `valid` is -1, on any CPU. Embree traces a
+// 16-wide packet natively only on AVX-512; elsewhere (AVX2) its ray-stream path ignores `valid`,
+// traces every lane whose tnear <= tfar, and asserts on one that holds no finite ray (Debian's
+// build keeps the assertion: every cross-row fit aborted on an AVX2 EPYC). So the other lanes
+// become empty intervals first; their ray and hit data are not to be read afterwards.
+inline void DeactivateInvalidLanes(const int* valid, RTCRay16* r) {
+  for (int i = 0; i < 16; ++i) {
+    if (valid[i]) continue;
+    r->tnear[i] = std::numeric_limits<float>::infinity();
+    r->tfar[i] = -std::numeric_limits<float>::infinity();
+  }
+}
+inline void Intersect16(int* valid, RTCScene scene, RTCIntersectContext* context, RTCRayHit16* rays) {
+  DeactivateInvalidLanes(valid, &rays->ray);
+  rtcIntersect16(valid, scene, context, rays);
+}
+inline void Occluded16(int* valid, RTCScene scene, RTCIntersectContext* context, RTCRay16* rays) {
+  DeactivateInvalidLanes(valid, rays);
+  rtcOccluded16(valid, scene, context, rays);
+}
+
 // One instance of a bottom-level scene.
 struct SceneInstance {
   RTCScene scene = nullptr;

@@ -233,7 +233,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
           rays.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
           rays.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
         }
-        rtcIntersect16(valid, visible_scene.get(), &context, &rays);
+        Intersect16(valid, visible_scene.get(), &context, &rays);
         for (int i = 0; i < kLanes; ++i) {
           if (!valid[i]) continue;
           const uint32_t nearest = rays.hit.instID[0][i];  // objects: the room
@@ -309,7 +309,7 @@ Result<MaskPassResult> RunMaskPass(const Layout& layout, int min_visible_pixels,
             any_traced = true;
             SetRayLane(&rays, i, eye, pixel_rays.Kept(x, y), tnear);
           }
-          if (any_traced) rtcOccluded16(valid, scene.get(), &context, &rays);
+          if (any_traced) Occluded16(valid, scene.get(), &context, &rays);
           for (int i = 0; i < kLanes; ++i) {
             if (!inside[i]) continue;
             visible_inside += seen[i];

@@ -722,7 +722,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             SetRayHit(&rays, i, eye, dir, static_cast<float>(near), kInfinity);
           }
           count(traced);
-          if (AnyValid(traced)) rtcIntersect16(traced, scene.scene, &primary, &rays);
+          if (AnyValid(traced)) Intersect16(traced, scene.scene, &primary, &rays);
           for (int i = 0; i < kLanes; ++i) {
             active[i] = 0;
             if (!inside[i] || s >= lanes[i].samples) continue;
@@ -827,7 +827,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             const bool shadowed = !light.at_eye && AnyValid(valid);
             if (shadowed) {
               count(valid);
-              rtcOccluded16(valid, scene.scene, &secondary, &shadow);
+              Occluded16(valid, scene.scene, &secondary, &shadow);
             }
             // Light arriving along wi with this irradiance, reflected towards the camera.
             for (int c = 0; c < kLanes; c += kWidth) {
@@ -881,7 +881,7 @@ Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int 
             rays.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
           }
           count(traced);
-          if (AnyValid(traced)) rtcIntersect16(traced, scene.scene, &secondary, &rays);
+          if (AnyValid(traced)) Intersect16(traced, scene.scene, &secondary, &rays);
           for (int c = 0; c < kLanes; c += kWidth) {
             // Obscurance rather than binary occlusion: a blocker at distance t lets t / range
             // through (open = t / range), which is much less noisy at a few rays per pixel.
