@@ -59,11 +59,11 @@ inline void DeactivateInvalidLanes(const int* valid, RTCRay16* r) {
     r->tfar[i] = -std::numeric_limits<float>::infinity();
   }
 }
-inline void Intersect16(int* valid, RTCScene scene, RTCIntersectContext* context, RTCRayHit16* rays) {
+inline void Intersect16(const int* valid, RTCScene scene, RTCIntersectContext* context, RTCRayHit16* rays) {
   DeactivateInvalidLanes(valid, &rays->ray);
   rtcIntersect16(valid, scene, context, rays);
 }
-inline void Occluded16(int* valid, RTCScene scene, RTCIntersectContext* context, RTCRay16* rays) {
+inline void Occluded16(const int* valid, RTCScene scene, RTCIntersectContext* context, RTCRay16* rays) {
   DeactivateInvalidLanes(valid, rays);
   rtcOccluded16(valid, scene, context, rays);
 }

@@ -42,8 +42,7 @@ class OneTriangle : public ::testing::Test {
     rtcReleaseDevice(device_);
   }
   // Even lanes valid; every lane a ray down onto the triangle, lane 3 (not valid) no ray at all.
-  template <class Packet>
-  void Fill(Packet* rays) {
+  void Fill(RTCRay16* rays) {
     for (int i = 0; i < 16; ++i) {
       valid_[i] = i % 2 == 0 ? -1 : 0;
       SetRayLane(rays, i, Vec3{0.5, 0.5, 5}, Vec3{0, 0, -1}, 0.0f);
