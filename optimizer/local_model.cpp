@@ -7,6 +7,12 @@
 
 namespace solid::optimizer {
 
+double SquaredDistance(const std::vector<double>& a, const std::vector<double>& b) {
+  double sum = 0;
+  for (size_t j = 0; j < a.size(); ++j) sum += (a[j] - b[j]) * (a[j] - b[j]);
+  return sum;
+}
+
 LocalModel FitLocalModel(const std::vector<Observation>& observations, const std::vector<double>& centre,
                          double radius, const std::vector<double>& prior_jacobian, double prior_sd,
                          const std::vector<InterceptPrior>& intercept_priors) {
@@ -45,9 +51,7 @@ LocalModel FitLocalModel(const std::vector<Observation>& observations, const std
     Eigen::VectorXd phi(p);
     for (const Observation& o : observations) {
       if (o.x.size() != n || o.residuals.size() != m || o.variances.size() != m) continue;
-      double distance_sq = 0;
-      for (size_t j = 0; j < n; ++j) distance_sq += (o.x[j] - centre[j]) * (o.x[j] - centre[j]);
-      const double weight = std::exp(-distance_sq / (2 * radius * radius)) / std::max(o.variances[i], 1e-9);
+      const double weight = std::exp(-SquaredDistance(o.x, centre) / (2 * radius * radius)) / std::max(o.variances[i], 1e-9);
       phi.setZero();
       phi(std::find(groups.begin(), groups.end(), o.group) - groups.begin()) = 1;
       for (size_t j = 0; j < n; ++j) phi(g + j) = o.x[j] - centre[j];

@@ -41,6 +41,9 @@ struct InterceptPrior {
   std::vector<double> mean, variance;
 };
 
+// |a - b|^2 over the dimensions of the unit cube.
+double SquaredDistance(const std::vector<double>& a, const std::vector<double>& b);
+
 // Per target, r = a_group + J (x - centre) by least squares, each observation weighted by the
 // inverse of its variance times exp(-|x - centre|^2 / (2 radius^2)) (the model is local), the
 // slopes drawn toward `prior_jacobian` with a standard deviation of `prior_sd` (so that the

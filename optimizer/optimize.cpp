@@ -436,9 +436,7 @@ struct Search {
     std::vector<double> mean(options.targets.size()), variance(options.targets.size());
     double weight = 0;
     for (const Offset& o : offsets) {
-      double distance_sq = 0;
-      for (size_t j = 0; j < centre.size(); ++j) distance_sq += (o.x[j] - centre[j]) * (o.x[j] - centre[j]);
-      const double w = o.pairs * std::exp(-distance_sq / (2 * radius * radius));
+      const double w = o.pairs * std::exp(-SquaredDistance(o.x, centre) / (2 * radius * radius));
       for (size_t i = 0; i < mean.size(); ++i) mean[i] += w * o.value[i];
       weight += w;
     }
@@ -675,11 +673,8 @@ struct Search {
   }
   // Whether an offset between the resolutions was measured within kOffsetReach of `unit`.
   bool OffsetMeasuredNear(const std::vector<double>& unit) const {
-    return std::any_of(offsets.begin(), offsets.end(), [&](const Offset& o) {
-      double distance_sq = 0;
-      for (size_t j = 0; j < unit.size(); ++j) distance_sq += (o.x[j] - unit[j]) * (o.x[j] - unit[j]);
-      return distance_sq <= kOffsetReach * kOffsetReach;
-    });
+    return std::any_of(offsets.begin(), offsets.end(),
+                       [&](const Offset& o) { return SquaredDistance(o.x, unit) <= kOffsetReach * kOffsetReach; });
   }
 
   // The local model at `centre` (local_model.h), the evaluations' intercept tied to the
@@ -771,15 +766,10 @@ struct Search {
       measured_here[unit] = {std::move(params), std::move(e)};
       return Status::Ok();
     };
-    auto distance = [](const std::vector<double>& a, const std::vector<double>& b) {
-      double sum = 0;
-      for (size_t j = 0; j < a.size(); ++j) sum += (a[j] - b[j]) * (a[j] - b[j]);
-      return std::sqrt(sum);
-    };
     std::vector<double> centre = best_unit;
     std::string converged;
     while (!stop()) {
-      if (design_centre.empty() || distance(design_centre, centre) > kRedesignAt) {
+      if (design_centre.empty() || std::sqrt(SquaredDistance(design_centre, centre)) > kRedesignAt) {
         phase = "jacobian";
         // The model's level leans on the offset between the resolutions near its centre:
         // where none was measured, the new design's centre has its layouts paired.
