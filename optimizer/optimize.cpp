@@ -491,10 +491,13 @@ struct Search {
     const int64_t part = std::max<int64_t>(1, (size.low + kConfirmationParts - 1) / kConfirmationParts);
     for (;;) {
       const auto done = static_cast<int64_t>(low.size()), paired = static_cast<int64_t>(high.size());
-      if (done >= size.low) break;
-      // The next part, and the pairs that keep them in proportion to the plan.
-      const int64_t count = std::min(part, size.low - done);
-      const int64_t pairs = std::clamp(size.high * (done + count) / size.low - paired, int64_t{0}, count);
+      if (done >= size.low && paired >= size.high) break;
+      // The next part, and the pairs that keep them in proportion to the plan; once a
+      // re-plan wants more pairs than the layouts so far kept, a part of pairs alone.
+      const int64_t count = done < size.low ? std::min(part, size.low - done) : std::min(part, size.high - paired);
+      const int64_t pairs = done < size.low
+                                ? std::clamp(size.high * (done + count) / size.low - paired, int64_t{0}, count)
+                                : count;
       EvaluationOptions at_eval{options.seed, first + done, count, 0, 0, options.jobs, options.cancel};
       if (two_phase) std::tie(at_eval.width, at_eval.height) = std::pair(report.eval_width, report.eval_height);
       SOLID_ASSIGN_OR_RETURN(Evaluation e, Evaluate(params, library, at_eval));
@@ -507,7 +510,9 @@ struct Search {
         high.insert(high.end(), h.totals.begin(), h.totals.end());
       }
       so_far = EstimateMetrics(low, high);
-      if (static_cast<int64_t>(low.size()) >= size.low) break;
+      // A sized confirmation is not done at its plan: the plan rests on the layouts before
+      // this part, and this part's may have raised the standard error past the target.
+      if (fixed && static_cast<int64_t>(low.size()) >= size.low && static_cast<int64_t>(high.size()) >= size.high) break;
       if (ClearMiss(so_far)) {
         clear_miss = true;
         break;
@@ -525,6 +530,7 @@ struct Search {
                                                                   static_cast<double>(std::max<int64_t>(1, size.low));
       const double left = options.max_seconds - SecondsSince(start);
       const auto affordable = static_cast<int64_t>(std::max(0.0, left) / std::max(1e-9, per_layout));
+      if (affordable == 0) break;
       size.low = std::max(static_cast<int64_t>(low.size()), std::min(size.low, static_cast<int64_t>(low.size()) + affordable));
       size.high = std::min(size.high, size.low);
     }
