@@ -489,9 +489,12 @@ struct Search {
     const bool fixed = options.confirm_layouts > 0;
     ConfirmationSize size = PlannedConfirmation();
     const int64_t part = std::max<int64_t>(1, (size.low + kConfirmationParts - 1) / kConfirmationParts);
+    auto reached_plan = [&] {
+      return static_cast<int64_t>(low.size()) >= size.low && static_cast<int64_t>(high.size()) >= size.high;
+    };
     for (;;) {
+      if (reached_plan()) break;
       const auto done = static_cast<int64_t>(low.size()), paired = static_cast<int64_t>(high.size());
-      if (done >= size.low && paired >= size.high) break;
       // The next part, and the pairs that keep them in proportion to the plan; once a
       // re-plan wants more pairs than the layouts so far kept, a part of pairs alone.
       const int64_t count = done < size.low ? std::min(part, size.low - done) : std::min(part, size.high - paired);
@@ -512,7 +515,7 @@ struct Search {
       so_far = EstimateMetrics(low, high);
       // A sized confirmation is not done at its plan: the plan rests on the layouts before
       // this part, and this part's may have raised the standard error past the target.
-      if (fixed && static_cast<int64_t>(low.size()) >= size.low && static_cast<int64_t>(high.size()) >= size.high) break;
+      if (fixed && reached_plan()) break;
       if (ClearMiss(so_far)) {
         clear_miss = true;
         break;
