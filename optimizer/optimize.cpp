@@ -497,10 +497,13 @@ struct Search {
       const auto done = static_cast<int64_t>(low.size()), paired = static_cast<int64_t>(high.size());
       // The next part, and the pairs that keep them in proportion to the plan; once a
       // re-plan wants more pairs than the layouts so far kept, a part of pairs alone.
-      const int64_t count = done < size.low ? std::min(part, size.low - done) : std::min(part, size.high - paired);
-      const int64_t pairs = done < size.low
-                                ? std::clamp(size.high * (done + count) / size.low - paired, int64_t{0}, count)
-                                : count;
+      int64_t count = 0, pairs = 0;
+      if (done < size.low) {
+        count = std::min(part, size.low - done);
+        pairs = std::clamp(size.high * (done + count) / size.low - paired, int64_t{0}, count);
+      } else {
+        count = pairs = std::min(part, size.high - paired);
+      }
       EvaluationOptions at_eval{options.seed, first + done, count, 0, 0, options.jobs, options.cancel};
       if (two_phase) std::tie(at_eval.width, at_eval.height) = std::pair(report.eval_width, report.eval_height);
       SOLID_ASSIGN_OR_RETURN(Evaluation e, Evaluate(params, library, at_eval));
