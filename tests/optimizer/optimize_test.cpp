@@ -1,7 +1,8 @@
 // The optimizer on the procedural assets: deterministic evaluations, a target met at the start
 // costs no search, a reduced Table-1 fit converges, Gauss-Newton's evaluations on layouts of
 // their own and its design, the confirmation's estimate, size and early stop, rounds until a
-// budget, an infeasible target ends with its blocking bound; and dataset metrics from stored
+// budget, last rounds when the time left covers no full one, an infeasible target ends with its
+// blocking bound; and dataset metrics from stored
 // masks.
 #include "solid/optimizer/optimize.h"
 
@@ -492,6 +493,50 @@ TEST(Optimize, RoundsGoOnUntilABudgetAndTheStopReasonNamesIt) {
   ASSERT_OK(short_of_time.status());
   EXPECT_EQ(short_of_time->ending, "time");
   EXPECT_EQ(short_of_time->rounds, 1);
+}
+
+// Seconds that advance by `step` at each reading: the time budget's decisions the same on
+// any machine and under any load.
+std::function<double()> CountingClock(double step) {
+  return [readings = std::make_shared<int64_t>(0), step] { return step * static_cast<double>((*readings)++); };
+}
+
+// When a confirmation missed and the time left covers no full round (a search and a
+// confirmation sized to --confirm-error), the fit does not end: its last rounds take at most
+// kLastRoundSteps steps on the model as it stands, measure no design, and confirm what the
+// time allows. A counting clock makes the budget's decisions the same under any load; the
+// budgets end the fit after its first round's confirmation, where a last round fits in some.
+TEST(Optimize, LastRoundsStepAndConfirmWhenNoFullRoundFits) {
+  int last_rounds = 0;
+  for (const double budget : {0.7, 0.8, 0.9}) {
+    Result<OptimizeOptions> options = TwoRoundsOfAttempts(200);
+    ASSERT_OK(options.status());
+    OptimizeOptions& o = *options;
+    o.max_rounds = 10;
+    o.confirm_layouts = 0;
+    o.confirm_standard_error = 0.6;
+    ASSERT_OK(TargetTheStartsCount(o));
+    o.targets[0].value += 2;  // beyond what the attempts' bounds reach: no confirmation meets
+    o.clock = CountingClock(0.01);
+    o.max_seconds = budget;
+    Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
+    ASSERT_OK(r.status());
+    EXPECT_EQ(r->ending, "time") << budget << ": " << r->stop_reason;
+    ASSERT_EQ(r->confirmations.size(), static_cast<size_t>(r->rounds));
+    for (int round = 0; round < r->rounds; ++round) {
+      if (r->history[round].find("a last round") == std::string::npos) continue;
+      ++last_rounds;
+      EXPECT_GT(round, 0);
+      int steps = 0;
+      for (const TraceRow& t : r->trace) {
+        if (t.round != round) continue;
+        EXPECT_NE(t.phase, "jacobian") << "budget " << budget << ", round " << round + 1;
+        steps += t.phase == "local" ? 1 : 0;
+      }
+      EXPECT_LE(steps, 3) << "budget " << budget << ", round " << round + 1;
+    }
+  }
+  EXPECT_GT(last_rounds, 0);
 }
 
 // NLopt's methods search common layouts: the second round aims, on its common seeds, at the

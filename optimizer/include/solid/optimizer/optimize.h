@@ -190,6 +190,10 @@ struct OptimizeOptions {
   int max_rounds = 10;
   std::function<void(const TraceRow&)> on_evaluation;  // called after each evaluation
   std::function<void(const ConfirmationRow&)> on_confirmation;  // and after each confirmation
+  // Seconds on a monotonic clock, what the time budget is counted on (empty: the steady
+  // clock). Tests give one that advances by a fixed step at each reading, so that every
+  // decision the budget makes is the same on any machine and under any load.
+  std::function<double()> clock;
   // Stops the search (solid/formats/cancel.h): the evaluation in flight is dropped, and
   // Optimize returns the best point of the evaluations done, unconfirmed (report.cancelled),
   // or kCancelled when none was done.
