@@ -75,9 +75,10 @@ constexpr int64_t kMinConfirmPairs = 100;
 constexpr int kConfirmationParts = 8;
 // Each round doubles the common layouts of the last, up to 8 times the first round's.
 constexpr int kMaxLayoutDoublings = 3;
-// Gauss-Newton's last rounds (Search::last_rounds): their steps, and how much larger than
+// Gauss-Newton's last rounds (Search::last_rounds): their evaluations (steps, and a pairing
+// at the output resolution where the model asks for one), and how much larger than
 // --confirm-error their confirmation's standard error may be.
-constexpr int kLastRoundSteps = 3;
+constexpr int kLastRoundEvaluations = 3;
 constexpr double kLastRoundsErrorFactor = 2;
 
 // What one layout costs at a mask resolution, relative to drawing it: the layout itself,
@@ -1081,15 +1082,15 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         end_with("rounds");
         break;
       }
-      if (s.round > 0 && s.OutOfBudget()) {
+      if (s.round > 0 && (s.last_rounds || s.OutOfBudget())) {
         // Rather than end on a confirmation that missed, with time left that a full round
         // would overrun: the model, which now holds that confirmation, steps toward the
         // targets and a smaller confirmation judges the step. (more-objects with seed 6 within
         // 60 s ended at 47 s, its first confirmation 1.5 standard errors short of the count's
         // tolerance; one step on the model met in a longer run.) Not after a confirmation that
-        // met: a noisier one would only replace it.
+        // met: a noisier one would only replace it, so none follows one that met either.
         s.last_rounds = gauss_newton && !met_earlier;
-        if (!s.last_rounds || s.OutOfBudget()) {
+        if (s.OutOfBudget()) {
           end_with(s.SpentBudget());
           break;
         }
@@ -1142,7 +1143,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         if (!s.met && !s.OutOfBudget()) {
           s.phase = "local";
           const int budget = options.max_evaluations - r.evaluations;
-          SOLID_RETURN_IF_ERROR(gauss_newton ? s.GaussNewton(s.last_rounds ? std::min(budget, kLastRoundSteps) : budget)
+          SOLID_RETURN_IF_ERROR(gauss_newton ? s.GaussNewton(s.last_rounds ? std::min(budget, kLastRoundEvaluations) : budget)
                                              : s.Minimize(local, options.algorithm, budget,
                                                           std::ldexp(1.0, -std::min(s.round, kMaxLayoutDoublings))));
         }
@@ -1154,7 +1155,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
       const ConfirmationRow& confirmed = r.confirmations.back();
       r.history.push_back(fmt::format(
           "round {}{}: {} evaluations of {} layouts, {}; confirmation on {} layouts{}: {}", s.round + 1,
-          s.last_rounds ? fmt::format(" (a last round: the time left covers no full one, at most {} steps)", kLastRoundSteps) : "",
+          s.last_rounds ? fmt::format(" (a last round: the time left covers no full one, at most {} evaluations)", kLastRoundEvaluations) : "",
           r.evaluations - s.round_first_evaluation, s.layouts, s.round_note, confirmed.metrics.images,
           s.two_phase ? fmt::format(" ({} also at the output resolution)", confirmed.output_layouts) : "",
           confirmed.met ? "met" : confirmed.clear_miss ? "a clear miss" : "missed"));

@@ -2,8 +2,7 @@
 // costs no search, a reduced Table-1 fit converges, Gauss-Newton's evaluations on layouts of
 // their own and its design, the confirmation's estimate, size and early stop, rounds until a
 // budget, last rounds when the time left covers no full one, an infeasible target ends with its
-// blocking bound; and dataset metrics from stored
-// masks.
+// blocking bound; and dataset metrics from stored masks.
 #include "solid/optimizer/optimize.h"
 
 #include <fmt/format.h>
@@ -503,8 +502,8 @@ std::function<double()> CountingClock(double step) {
 
 // When a confirmation missed and the time left covers no full round (a search and a
 // confirmation sized to --confirm-error), the fit does not end: its last rounds take at most
-// kLastRoundSteps steps on the model as it stands, measure no design, and confirm what the
-// time allows. A counting clock makes the budget's decisions the same under any load; the
+// 3 evaluations on the model as it stands, measure no design, and confirm what the time
+// allows. A counting clock makes the budget's decisions the same under any load; the
 // budgets end the fit after its first round's confirmation, where a last round fits in some.
 TEST(Optimize, LastRoundsStepAndConfirmWhenNoFullRoundFits) {
   int last_rounds = 0;
