@@ -393,10 +393,11 @@ struct Search {
   // take. Sized by the layouts' modelled costs, not their measured seconds, so that a fit
   // the budget does not cut short is the same on any machine. Before the first confirmation
   // begins (and measures the noise model), the smallest: what the search keeps time for, and
-  // the first confirmation is then as large as the time left allows. Planned in full from the best point's layouts, the
-  // 13.7-object row's first confirmation kept 12 s of its minute from the search, and 3 of
-  // more-objects' first 7 seeds within 60 s missed, their points worse, against 0 and 1 of
-  // those 7 in two runs keeping the smallest (measured 2026-12-07, not kept).
+  // the first confirmation is then as large as the time left allows. Planned in full from
+  // the best point's layouts, the 13.7-object row's first confirmation kept 12 s of its
+  // minute from the search, and 3 of more-objects' first 7 seeds within 60 s missed, their
+  // points worse, against 0 and 1 of those 7 in two runs keeping the smallest (measured
+  // 2026-12-07, not kept).
   ConfirmationSize PlannedConfirmation(double standard_error_factor = 1) const {
     ConfirmationSize size;
     if (confirmations > 0) {
