@@ -164,11 +164,11 @@ int main(int argc, char** argv) {
     return 1;
   }
   fmt::print(
-      "| row | seed | evals | fit s | fit CPU s | ended | fit met | count | occlusion | small | medium | large | met on "
-      "{} fresh |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      "| row | seed | evals | rounds (last) | fit s | fit CPU s | ended | fit met | count | occlusion | small | medium | "
+      "large | met on {} fresh |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
       verify_layouts);
   struct Fits {
-    int met = 0;
+    int met = 0, with_last_rounds = 0;
     std::vector<double> seconds;
     std::vector<int64_t> evaluations;
   };
@@ -214,25 +214,27 @@ int main(int argc, char** argv) {
       cells += fmt::format(" {:.2f} / {:.2f}{} |", k * c.measured.mean, k * c.reference.mean, within ? "" : " (miss)");
     }
     const std::string from = start_preset.empty() ? "" : fmt::format(" (from {})", start_preset);
-    fmt::print("| {}{} | {} | {} | {:.0f} | {:.0f} | {} | {} |{} {} |\n", row, from, seed, r->evaluations, r->seconds,
-               fit_cpu, r->ending, r->all_met ? "yes" : "no", cells, met ? "yes" : "NO");
+    fmt::print("| {}{} | {} | {} | {} ({}) | {:.0f} | {:.0f} | {} | {} |{} {} |\n", row, from, seed, r->evaluations,
+               r->rounds, r->last_rounds, r->seconds, fit_cpu, r->ending, r->all_met ? "yes" : "no", cells,
+               met ? "yes" : "NO");
     std::fflush(stdout);
     Fits& fits = summary[row + from];
     met = met && r->all_met;
     fits.met += met ? 1 : 0;
+    fits.with_last_rounds += r->last_rounds > 0 ? 1 : 0;
     fits.seconds.push_back(r->seconds);
     fits.evaluations.push_back(r->evaluations);
     if (!met) ++missed;
   }
   if (real) fs::remove_all(scratch);
   if (seeds.size() > 1) {
-    fmt::print("\n| row | met, fit and fresh (of {} seeds) | median fit s | worst fit s | median evals | most evals |\n"
-               "|---|---|---|---|---|---|\n",
+    fmt::print("\n| row | met, fit and fresh (of {} seeds) | median fit s | worst fit s | median evals | most evals | "
+               "fits with last rounds |\n|---|---|---|---|---|---|---|\n",
                seeds.size());
     for (const auto& [row, fits] : summary) {
-      fmt::print("| {} | {} | {:.0f} | {:.0f} | {} | {} |\n", row, fits.met, Median(fits.seconds),
+      fmt::print("| {} | {} | {:.0f} | {:.0f} | {} | {} | {} |\n", row, fits.met, Median(fits.seconds),
                  *std::max_element(fits.seconds.begin(), fits.seconds.end()), Median(fits.evaluations),
-                 *std::max_element(fits.evaluations.begin(), fits.evaluations.end()));
+                 *std::max_element(fits.evaluations.begin(), fits.evaluations.end()), fits.with_last_rounds);
     }
   }
   return missed == 0 ? 0 : 2;

@@ -1097,6 +1097,7 @@ Result<OptimizeReport> Optimize(std::shared_ptr<render::AssetLibrary> library, c
         }
       }
       r.rounds = s.round + 1;
+      r.last_rounds += s.last_rounds ? 1 : 0;
       s.round_first_evaluation = r.evaluations;
       // NLopt's methods search common layouts, twice as many each round; Gauss-Newton's
       // local model gathers its evaluations instead.
@@ -1280,6 +1281,7 @@ nlohmann::json OptimizeReport::ToJson() const {
                       {"evaluation_resolution", {eval_width, eval_height}},
                       {"evaluations", evaluations},
                       {"rounds", rounds},
+                      {"last_rounds", last_rounds},
                       {"seconds", seconds},
                       {"ending", ending},
                       {"stop_reason", stop_reason},

@@ -522,9 +522,10 @@ TEST(Optimize, LastRoundsStepAndConfirmWhenNoFullRoundFits) {
     ASSERT_OK(r.status());
     EXPECT_EQ(r->ending, "time") << budget << ": " << r->stop_reason;
     ASSERT_EQ(r->confirmations.size(), static_cast<size_t>(r->rounds));
+    int said_last = 0;
     for (int round = 0; round < r->rounds; ++round) {
       if (r->history[round].find("a last round") == std::string::npos) continue;
-      ++last_rounds;
+      ++said_last;
       EXPECT_GT(round, 0);
       int steps = 0;
       for (const TraceRow& t : r->trace) {
@@ -534,6 +535,9 @@ TEST(Optimize, LastRoundsStepAndConfirmWhenNoFullRoundFits) {
       }
       EXPECT_LE(steps, 3) << "budget " << budget << ", round " << round + 1;
     }
+    EXPECT_EQ(r->last_rounds, said_last) << budget;
+    EXPECT_EQ(r->ToJson()["last_rounds"], said_last) << budget;
+    last_rounds += said_last;
   }
   EXPECT_GT(last_rounds, 0);
 }

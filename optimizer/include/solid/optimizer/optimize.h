@@ -229,6 +229,7 @@ struct OptimizeReport {
   std::optional<ProxyMetrics> pilot;
   int eval_width = 0, eval_height = 0;
   int evaluations = 0, rounds = 0;
+  int last_rounds = 0;  // of rounds, those run as last rounds (docs/optimizer.md, "Rounds")
   double seconds = 0;
   // Why the fit ended (docs/optimize.md, "Stop reasons"): "met" (a confirmation within the
   // margin of every target), "time", "evaluations" or
