@@ -130,7 +130,7 @@ constexpr double kAtBound = 1e-3;
 // Part of a fit's fingerprint: a recorded fit is reused only when the search that made it
 // would make it again. Raise it with any change that moves where a search ends for the same
 // options (the project version alone let a rerun reuse fits of an older search).
-constexpr int kSearchRevision = 9;
+constexpr int kSearchRevision = 10;
 
 struct NloptDeleter {
   void operator()(nlopt_opt o) const { nlopt_destroy(o); }
@@ -728,11 +728,14 @@ struct Search {
     }
     return e;
   }
-  // Whether an offset between the resolutions was measured within kOffsetReach of `unit`.
-  bool OffsetMeasuredNear(const std::vector<double>& unit) const {
-    return std::any_of(offsets.begin(), offsets.end(),
-                       [&](const Offset& o) { return SquaredDistance(o.x, unit) <= kOffsetReach * kOffsetReach; });
+  // How far (unit cube) `unit` is from the nearest point where the offset between the
+  // resolutions was measured; infinite where none was.
+  double DistanceToAnOffset(const std::vector<double>& unit) const {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Offset& o : offsets) nearest = std::min(nearest, SquaredDistance(o.x, unit));
+    return std::sqrt(nearest);
   }
+  bool OffsetMeasuredNear(const std::vector<double>& unit) const { return DistanceToAnOffset(unit) <= kOffsetReach; }
 
   // The local model at `centre` (local_model.h), the evaluations' intercept tied to the
   // output resolution's by the offsets measured near it.
@@ -824,6 +827,26 @@ struct Search {
       return Status::Ok();
     };
     std::vector<double> centre = best_unit;
+    // The damped step from centre on `model` within `radius`, measured; centre moves there
+    // when the local model, with that evaluation, is closer to the targets there.
+    struct Stepped {
+      bool stationary = false;  // no step within the bounds improves the model
+      bool taken = false, to_the_radius = false;
+    };
+    auto step_on = [&](const LocalModel& model, double radius) -> Result<Stepped> {
+      const LinearModel linear = DampedModel(model.residuals, model.jacobian, n);
+      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, StepWithin(linear, centre, radius));
+      const double predicted = SquaredNorm(model.residuals) - SquaredNorm(linear.Predict(d.data()));
+      if (!(predicted > 0) || LargestComponent(d) < kAtBound) return Stepped{.stationary = true};
+      std::vector<double> next = centre;
+      for (size_t j = 0; j < n; ++j) next[j] = std::clamp(centre[j] + d[j], 0.0, 1.0);
+      SOLID_RETURN_IF_ERROR(measure(next));
+      if (!(SquaredNorm(Fit(next).residuals) < SquaredNorm(Fit(centre).residuals))) return Stepped{};
+      centre = next;
+      const auto& [params, e] = measured_here[next];
+      SetBest(next, params, e);
+      return Stepped{.taken = true, .to_the_radius = std::sqrt(SquaredNorm(d)) >= 0.99 * radius};
+    };
     std::string converged;
     while (!stop()) {
       // The last rounds have no time for a design: the model's slopes stand as they are.
@@ -863,25 +886,27 @@ struct Search {
         }
         met = true;
         converged = "the local model within the margin at its centre";
+        // Within the margin is not on the targets: a search that comes from one side stops
+        // at the first point within the margin, on that side (ten more-objects fits that met
+        // read the count 0.4 tolerances low on average on their 2,000-layout checks,
+        // scale-distribution's and scenenet-background's 0.3). One more step aims at the
+        // targets themselves, and the confirmation judges where it lands. Within reach of the
+        // offset that the model's level leans on there.
+        const double reach = two_phase ? kOffsetReach - DistanceToAnOffset(centre) : trust_radius;
+        if (!stop() && reach >= kAtBound) {
+          SOLID_ASSIGN_OR_RETURN(const Stepped last, step_on(model, std::min(trust_radius, reach)));
+          if (last.taken) converged += ", then one step toward the targets";
+        }
         break;
       }
-      const LinearModel linear = DampedModel(model.residuals, model.jacobian, n);
-      SOLID_ASSIGN_OR_RETURN(const std::vector<double> d, StepWithin(linear, centre, trust_radius));
-      const double predicted = SquaredNorm(model.residuals) - SquaredNorm(linear.Predict(d.data()));
-      if (!(predicted > 0) || LargestComponent(d) < kAtBound) {
+      SOLID_ASSIGN_OR_RETURN(const Stepped stepped, step_on(model, trust_radius));
+      if (stepped.stationary) {
         stationary = true;
         converged = std::string(kStationary);
         break;
       }
-      std::vector<double> next = centre;
-      for (size_t j = 0; j < n; ++j) next[j] = std::clamp(centre[j] + d[j], 0.0, 1.0);
-      SOLID_RETURN_IF_ERROR(measure(next));
-      const double there = SquaredNorm(Fit(next).residuals), here = SquaredNorm(Fit(centre).residuals);
-      if (there < here) {
-        centre = next;
-        const auto& [params, e] = measured_here[next];
-        SetBest(next, params, e);
-        if (std::sqrt(SquaredNorm(d)) >= 0.99 * trust_radius) trust_radius = std::min(kLargestRadius, 2 * trust_radius);
+      if (stepped.taken) {
+        if (stepped.to_the_radius) trust_radius = std::min(kLargestRadius, 2 * trust_radius);
       } else {
         trust_radius *= 0.5;
         if (trust_radius < kLeastRadius) {

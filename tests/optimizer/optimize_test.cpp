@@ -322,9 +322,10 @@ TEST(Optimize, GaussNewtonMeasuresEachEvaluationOnLayoutsOfItsOwn) {
 // Gauss-Newton pairs that point's own layouts at the output resolution: every "output" row
 // after the start's is the layouts of the evaluation before it, at the output resolution, and
 // each round whose search ended within the margin has one within 0.15 of its point (unit
-// cube). The fit of ReachesTheMoreObjectsRowFromRandomPlacement, whose point moves far. It
-// fails without both rules (pairs at a new design's centre, and before "within the margin");
-// either alone passes it here.
+// cube), the one step it then takes toward the targets included. The fit of
+// ReachesTheMoreObjectsRowFromRandomPlacement, whose point moves far. It fails without both
+// rules (pairs at a new design's centre, and before "within the margin"); either alone passes
+// it here.
 TEST(Optimize, GaussNewtonPairsItsLayoutsWhereItsModelComesWithinTheMargin) {
   const OptimizeOptions o = CrossRowReduced();
   Result<OptimizeReport> r = Optimize(render::testing::ProceduralLibrary(), o);
@@ -356,7 +357,7 @@ TEST(Optimize, GaussNewtonPairsItsLayoutsWhereItsModelComesWithinTheMargin) {
     ASSERT_LT(t.round, r->rounds);
     paired_in_round[t.round].push_back(t.x);
   }
-  int within_margin = 0;
+  int within_margin = 0, stepped_on = 0;
   for (int round = 0; round < r->rounds; ++round) {
     if (r->history[round].find("within the margin") == std::string::npos) continue;
     ++within_margin;
@@ -364,8 +365,24 @@ TEST(Optimize, GaussNewtonPairsItsLayoutsWhereItsModelComesWithinTheMargin) {
     EXPECT_TRUE(std::any_of(paired_in_round[round].begin(), paired_in_round[round].end(),
                             [&](const std::vector<double>& x) { return unit_distance(x, point) <= 0.15 + 1e-9; }))
         << r->history[round];
+    // Within the margin is not on the targets: one more step from there, whose point is the
+    // round's last evaluation, a new one, and the one confirmed.
+    if (r->history[round].find("within the margin at its centre, then one step toward the targets") ==
+        std::string::npos) {
+      continue;
+    }
+    ++stepped_on;
+    std::vector<const TraceRow*> rows;
+    for (const TraceRow& t : r->trace) {
+      if (t.round == round) rows.push_back(&t);
+    }
+    ASSERT_FALSE(rows.empty());
+    EXPECT_EQ(rows.back()->phase, "local");
+    EXPECT_EQ(rows.back()->x, point);
+    for (size_t i = 0; i + 1 < rows.size(); ++i) EXPECT_NE(rows[i]->x, point) << "evaluation " << rows[i]->evaluation;
   }
   EXPECT_GE(within_margin, 1) << r->ToJson().dump(1);
+  EXPECT_GE(stepped_on, 1) << r->ToJson().dump(1);
 }
 
 // The design of differences around the start: each free dimension a step of 0.15 of its
