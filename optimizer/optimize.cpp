@@ -892,9 +892,10 @@ struct Search {
         // scale-distribution's and scenenet-background's 0.3). One more step aims at the
         // targets themselves, and the confirmation judges where it lands. Within reach of the
         // offset that the model's level leans on there.
-        const double reach = two_phase ? kOffsetReach - DistanceToAnOffset(centre) : trust_radius;
-        if (!stop() && reach >= kAtBound) {
-          SOLID_ASSIGN_OR_RETURN(const Stepped last, step_on(model, std::min(trust_radius, reach)));
+        const double radius =
+            two_phase ? std::min(trust_radius, kOffsetReach - DistanceToAnOffset(centre)) : trust_radius;
+        if (!stop() && radius >= kAtBound) {
+          SOLID_ASSIGN_OR_RETURN(const Stepped last, step_on(model, radius));
           if (last.taken) converged += ", then one step toward the targets";
         }
         break;
