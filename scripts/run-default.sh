@@ -23,7 +23,8 @@ step "2/7 optimize: fit the $row preset to Table 1's $row row (mask pass only)"
 # Exit code 1 is a fit that missed a target on its confirmation layouts: the closest point is
 # written and rendered, and step 5 judges the dataset itself. The fit keeps its default budget
 # of 300 s and ends when met: within 60 s on 2 cores this row is met for 31 fits of 40 with
-# AVX-512 (four runs of ten seeds) and 4 of 10 with AVX2 only (docs/benchmarks.md, "Optimize").
+# AVX-512 (four runs of ten seeds) and 4 of 10 with AVX2 only (search revision 8;
+# docs/benchmarks.md, "Optimize").
 fit=0
 $solid optimize --preset "$row" --target-row "$row" --assets "$out/assets" \
   --out "$out/fitted-params.json" --trace "$out/fit-trace.csv" || fit=$?
