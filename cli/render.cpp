@@ -32,10 +32,10 @@ void PrintReport(const render::RenderReport& r, const render::LayoutParams& p) {
              r.query_views, r.query_shards_present);
   const render::StageTimes& s = r.stages;
   const double per_image = r.images > 0 ? 1.0 / r.images : 0.0;
-  fmt::print("time per image     layout {:.1f} ms, mask pass {:.1f} ms, shading {:.1f} ms, encoding {:.1f} ms, "
+  fmt::print("time per image     layout {:.1f} ms, mask pass {:.1f} ms, shading {:.1f} ms ({}), encoding {:.1f} ms, "
              "writing {:.1f} ms (one thread each)\n",
-             s.layout * per_image, s.mask_pass * per_image, s.shading * per_image, s.encoding * per_image,
-             s.writing * per_image);
+             s.layout * per_image, s.mask_pass * per_image, s.shading * per_image, r.shading_instruction_set,
+             s.encoding * per_image, s.writing * per_image);
   fmt::print("query views        {:.1f} s over all threads\n", s.query_views / 1000);
   fmt::print("total              {:.1f} s, {:.2f} images/s, peak memory {:.0f} MiB{}\n", r.seconds,
              r.seconds > 0 ? r.images / r.seconds : 0.0, r.peak_rss_bytes / 1048576.0,

@@ -1,6 +1,7 @@
 // The shader's pixel lanes in SIMD registers (internal to solid::render): a tile's 16
 // pixels are kept in columns, one array of 16 floats per quantity, and the loops over them
-// run a native vector (4 floats with SSE2, the x86-64 baseline) at a time. Only exactly
+// run a native vector at a time: 4 floats with SSE2 (the x86-64 baseline), 8 with AVX2 and
+// 16 with AVX-512, in the kernel set built for each (film_kernels.h). Only exactly
 // rounded operations are used (+, -, *, /, sqrt, comparisons, selects), and the build
 // forbids contracting them into FMAs, so every vector width gives the bits that scalar
 // code with the same operations in the same order gives.
@@ -13,7 +14,21 @@
 
 #include "shading.h"
 
+// Built into each kernel set's namespace (film_kernels.h), whose lanes differ in width;
+// elsewhere (tests) into `native`.
+#ifndef SOLID_FILM_ISA
+#define SOLID_FILM_ISA native
+#endif
+
 namespace solid::render {
+
+// Pixels are traced in kTile x kTile tiles, one 16-ray packet per tile and sample for
+// the camera rays, then one per light for the shadow rays and one for the ambient
+// rays: a tile's rays are coherent enough that packets beat single rays by far.
+inline constexpr int kTile = 4;
+inline constexpr int kLanes = kTile * kTile;
+
+namespace SOLID_FILM_ISA {
 
 namespace stdx = std::experimental;
 
@@ -21,12 +36,6 @@ using Floats = stdx::native_simd<float>;
 using FloatMask = Floats::mask_type;
 using Ints = stdx::rebind_simd_t<int32_t, Floats>;
 inline constexpr int kWidth = static_cast<int>(Floats::size());
-
-// Pixels are traced in kTile x kTile tiles, one 16-ray packet per tile and sample for
-// the camera rays, then one per light for the shadow rays and one for the ambient
-// rays: a tile's rays are coherent enough that packets beat single rays by far.
-inline constexpr int kTile = 4;
-inline constexpr int kLanes = kTile * kTile;
 static_assert(kLanes % kWidth == 0);
 
 // A column: one value per lane. Loads and stores at lane c, a multiple of kWidth.
@@ -154,5 +163,7 @@ inline void CosSinTurn(const Floats& a, Floats* cos, Floats* sin) {
   where(q == 1 || q == 2, *cos) = -*cos;
   where(q == 2 || q == 3, *sin) = -*sin;
 }
+
+}  // namespace SOLID_FILM_ISA
 
 }  // namespace solid::render

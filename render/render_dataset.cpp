@@ -31,6 +31,7 @@
 #include "solid/render/sample.h"
 
 #include "solid/formats/workers.h"
+#include "film_kernels.h"
 #include "room.h"
 
 namespace solid::render {
@@ -733,6 +734,7 @@ nlohmann::json RenderReport::ToJson() const {
           {"abandoned_shard", abandoned_shard >= 0 ? nlohmann::json(abandoned_shard) : nlohmann::json()},
           {"shards_missing", shards_missing},
           {"stages", stages.ToJson()},
+          {"shading_instruction_set", shading_instruction_set},
           {"seconds", seconds},
           {"peak_rss_bytes", peak_rss_bytes}};
 }
@@ -804,6 +806,7 @@ Result<RenderReport> RenderDataset(const LayoutSampler& sampler, const RenderOpt
   } else {
     SOLID_RETURN_IF_ERROR(IndexWhenComplete(run));
   }
+  report.shading_instruction_set = BestFilmKernels().instruction_set;
   report.seconds = MillisecondsSince(start) / 1000;
   report.peak_rss_bytes = PeakRssBytes();
   return report;

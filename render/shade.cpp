@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "film_kernels.h"
 #include "instance_scene.h"
 #include "room.h"
 #include "shading.h"
@@ -200,6 +201,11 @@ Result<std::shared_ptr<const DecodedTextures>> TextureCache::Get(const std::vect
 
 Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const ShadeOptions& options,
                           TextureCache& textures, const MaskPassResult* masks) {
+  return ShadeWith(layout, lights, options, textures, masks, BestFilmKernels());
+}
+
+Result<ShadeResult> ShadeWith(const Layout& layout, const LightRig& lights, const ShadeOptions& options,
+                              TextureCache& textures, const MaskPassResult* masks, const FilmKernels& kernels) {
   const auto start = std::chrono::steady_clock::now();
   if (options.samples_per_pixel < 1 || options.samples_per_pixel > 1024) {
     return InvalidArgumentError(fmt::format("shade: samples_per_pixel {} outside [1, 1024]", options.samples_per_pixel));
@@ -322,9 +328,9 @@ Result<ShadeResult> Shade(const Layout& layout, const LightRig& lights, const Sh
 
   const Film film = RenderFilm(scene, layout.camera, layout.width, layout.height, layout.near, sampling,
                                options.threads,
-                               MixSeed(layout.seed, static_cast<uint64_t>(layout.restart)));
+                               MixSeed(layout.seed, static_cast<uint64_t>(layout.restart)), kernels);
   ShadeResult out;
-  out.image = EncodeFilm(film);
+  out.image = EncodeFilm(film, kernels);
   out.rays = film.rays;
   out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return out;

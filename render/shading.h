@@ -85,6 +85,11 @@ struct ShadingScene {
   Vec3f background;  // radiance of rays that leave the scene
 };
 
+// The shader's inner loops for one instruction set (film_kernels.h), and the widest set this
+// CPU runs. Every set gives the same bits.
+struct FilmKernels;
+const FilmKernels& BestFilmKernels();
+
 // A linear image with, per pixel, whether any sample hit a surface.
 struct Film {
   int width = 0, height = 0;
@@ -142,7 +147,12 @@ inline constexpr int kFlatFilterRadius = 3;
 // colour channel below 1e-3 are left as they are and not used. Each pass's rows are
 // shared by `threads`; the result does not depend on their number. Its scratch buffers
 // are the calling thread's, kept for its next film.
-void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film);
+void FilterFlatLighting(const FlatGuides& guides, int threads, Film* film,
+                        const FilmKernels& kernels = BestFilmKernels());
+
+// A relative depth step between neighbouring pixel centres that makes both edge pixels
+// (EdgePixels), and the most FilterFlatLighting averages over per pixel of distance.
+inline constexpr float kDepthStep = 0.02f;
 
 // FilmSampling::edges from a mask pass: 1 where the pixel to a pixel's left, right, top or
 // bottom holds another visible id (object or room) or a depth more than 2% nearer or
@@ -153,9 +163,10 @@ std::vector<uint8_t> EdgePixels(const MaskPassResult& masks);
 // Traces width x height pixels of `camera` as `sampling` says, pixel p seeded with
 // MixSeed(seed, p) on the shading stream, rows shared by `threads`.
 Film RenderFilm(const ShadingScene& scene, const Camera& camera, int width, int height, double near,
-                const FilmSampling& sampling, int threads, uint64_t seed);
+                const FilmSampling& sampling, int threads, uint64_t seed,
+                const FilmKernels& kernels = BestFilmKernels());
 
 // sRGB 8-bit RGB of a linear film, tone mapped by ToneMap.
-Image8 EncodeFilm(const Film& film);
+Image8 EncodeFilm(const Film& film, const FilmKernels& kernels = BestFilmKernels());
 
 }  // namespace solid::render

@@ -9,6 +9,8 @@
 namespace solid::render {
 namespace {
 
+using namespace SOLID_FILM_ISA;
+
 float First(const Floats& v) { return static_cast<float>(v[0]); }
 
 // A specular lobe's power: relative error under 4e-6 wherever the power reaches 1e-6 (below,

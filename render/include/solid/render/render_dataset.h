@@ -98,6 +98,9 @@ struct RenderReport {
   int64_t abandoned_shard = -1;  // the shard given up when cancelled, -1 if none
   std::vector<int64_t> shards_missing;  // requested shards absent at the end (when cancelled)
   StageTimes stages;
+  // The instruction set of the shader's inner loops on this CPU (x86-64, x86-64-v3 or
+  // x86-64-v4; "generic" where only one is built): every one gives the same bytes.
+  std::string shading_instruction_set;
   double seconds = 0;
   int64_t peak_rss_bytes = 0;
   nlohmann::json ToJson() const;
