@@ -5,7 +5,7 @@
 // rounded operations only, none contracted), so the choice changes speed, never pixels.
 //
 // A set's code lives in the namespace of its instruction set, and every symbol it defines
-// outside it would be one the linker may take for all (tests/render/film_isa_symbols.sh
+// outside it would be one the linker may take for all (tests/render/film_kernels_symbols.sh
 // holds that there are none): allocation and threads stay in shading.cpp, which is built
 // for the baseline.
 #pragma once
