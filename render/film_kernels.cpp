@@ -55,7 +55,7 @@ void Strata(int n, int* nx, int* ny) {
 // an orthonormal basis around n (Duff et al. 2017, branchless).
 Floats3 CosineDirection(const Floats3& n, const Floats& a0, const Floats& a1) {
   const Floats r = stdx::sqrt(a0);
-  const Floats sign = stdx::copysign(Floats(1), n.z);
+  const Floats sign = SignOf(n.z);
   const Floats a = -1 / (sign + n.z);
   const Floats c = n.x * n.y * a;
   const Floats3 t{1 + sign * n.x * n.x * a, sign * c, -sign * n.x};

@@ -29,9 +29,10 @@ inline RTCRayHit MakeRay(Vec3 origin, Vec3 direction, float tnear) {
 }
 
 // Lane i of a 16-wide packet: a ray from `origin` along `direction` over [tnear, tfar].
-// V: Vec3 or Vec3f.
+// V: Vec3 or Vec3f. Always inlined: a copy kept out of line in the shader's AVX-512 kernels
+// could be the one every caller links to (film_kernels.h).
 template <class V>
-void SetRayLane(RTCRay16* r, int i, V origin, V direction, float tnear,
+[[gnu::always_inline]] inline void SetRayLane(RTCRay16* r, int i, V origin, V direction, float tnear,
                 float tfar = std::numeric_limits<float>::infinity()) {
   r->org_x[i] = static_cast<float>(origin.x);
   r->org_y[i] = static_cast<float>(origin.y);

@@ -87,6 +87,13 @@ inline Floats3 Normalized(const Floats3& v) {
   return unit;
 }
 
+// 1 or -1 with the sign bit of x (copysign(1, x): -1 for -0). Not std::experimental's
+// copysign, whose out-of-line copy would be shared with other files (film_kernels.h).
+inline Floats SignOf(const Floats& x) {
+  const Ints sign_bit = std::bit_cast<Ints>(x) & static_cast<int32_t>(0x80000000u);
+  return std::bit_cast<Floats>(sign_bit | std::bit_cast<Ints>(Floats(1)));
+}
+
 // Embree's masks (-1: the lane takes part) and ids at lane c, as masks of Floats, read as
 // float bits without a conversion: -1 (all ones) is a NaN, which compares unequal to
 // everything, itself included; 0 is 0; an id below 2^31 - 2^23 is a number or 0.

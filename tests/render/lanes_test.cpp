@@ -66,5 +66,12 @@ TEST(Lanes, EveryLaneAlike) {
   }
 }
 
+// copysign(1, x), the sign of the orthonormal basis around a normal: -1 for -0 too.
+TEST(Lanes, SignOfIsCopysignOfOne) {
+  for (const float x : {0.0f, -0.0f, 1e-30f, -1e-30f, 0.5f, -0.5f, 3e38f, -3e38f}) {
+    EXPECT_EQ(First(SignOf(Floats(x))), std::copysign(1.0f, x)) << x;
+  }
+}
+
 }  // namespace
 }  // namespace solid::render
